@@ -1,0 +1,118 @@
+//! Pre-cracks as bond filters: a bond whose reference segment crosses the crack is never created.
+
+use serde::{Deserialize, Serialize};
+
+/// A pre-crack surface.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Precrack {
+    /// 2D: the line segment from `start` to `end`.
+    Segment { start: [f64; 2], end: [f64; 2] },
+    /// 3D: the planar parallelogram `origin + a·edge1 + b·edge2`, a, b ∈ [0, 1].
+    Rectangle { origin: [f64; 3], edge1: [f64; 3], edge2: [f64; 3] },
+}
+
+impl Precrack {
+    pub fn dim(&self) -> usize {
+        match self {
+            Precrack::Segment { .. } => 2,
+            Precrack::Rectangle { .. } => 3,
+        }
+    }
+
+    /// Checks the crack surface is not degenerate.
+    pub fn validate(&self) -> Result<(), String> {
+        match self {
+            Precrack::Segment { start, end } => {
+                if start.iter().chain(end).any(|v| !v.is_finite()) {
+                    return Err("segment coordinates must be finite".into());
+                }
+                if start == end {
+                    return Err("segment start and end coincide: the crack has zero length".into());
+                }
+            }
+            Precrack::Rectangle { origin, edge1, edge2 } => {
+                if origin.iter().chain(edge1).chain(edge2).any(|v| !v.is_finite()) {
+                    return Err("rectangle coordinates must be finite".into());
+                }
+                let n = cross(edge1, edge2);
+                if dot(&n, &n) == 0.0 {
+                    return Err("rectangle edges edge1 and edge2 are parallel or zero: the crack has zero area".into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// True if the straight bond from `p` to `q` crosses the crack surface. Endpoints lying
+    /// exactly on the crack do not count as crossing.
+    pub fn cuts(&self, p: &[f64], q: &[f64]) -> bool {
+        match self {
+            Precrack::Segment { start, end } => segments_cross(p, q, start, end),
+            Precrack::Rectangle { origin, edge1, edge2 } => {
+                let n = cross(edge1, edge2);
+                let dp = (0..3).map(|k| (p[k] - origin[k]) * n[k]).sum::<f64>();
+                let dq = (0..3).map(|k| (q[k] - origin[k]) * n[k]).sum::<f64>();
+                if dp * dq >= 0.0 {
+                    return false;
+                }
+                let t = dp / (dp - dq);
+                let hit: [f64; 3] = std::array::from_fn(|k| p[k] + t * (q[k] - p[k]) - origin[k]);
+                // Solve hit = a e1 + b e2 in the plane by the 2×2 Gram system.
+                let (g11, g12, g22) = (dot(edge1, edge1), dot(edge1, edge2), dot(edge2, edge2));
+                let (r1, r2) = (dot(&hit, edge1), dot(&hit, edge2));
+                let det = g11 * g22 - g12 * g12;
+                let a = (r1 * g22 - r2 * g12) / det;
+                let b = (r2 * g11 - r1 * g12) / det;
+                (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)
+            }
+        }
+    }
+}
+
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn orient(a: &[f64], b: &[f64], c: &[f64]) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+/// Proper crossing of segments pq and ab; touching at an endpoint of pq does not count, while
+/// a bond passing through an end of the crack segment does (the crack tip cuts it).
+fn segments_cross(p: &[f64], q: &[f64], a: &[f64; 2], b: &[f64; 2]) -> bool {
+    let d1 = orient(a, b, p);
+    let d2 = orient(a, b, q);
+    if d1 * d2 >= 0.0 {
+        return false;
+    }
+    let d3 = orient(p, q, a);
+    let d4 = orient(p, q, b);
+    d3 * d4 <= 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segment_cuts_crossing_bonds_only() {
+        let c = Precrack::Segment { start: [0.0, 0.0], end: [1.0, 0.0] };
+        assert!(c.cuts(&[0.5, -0.1], &[0.5, 0.1]));
+        assert!(!c.cuts(&[1.5, -0.1], &[1.5, 0.1]));
+        assert!(!c.cuts(&[0.5, 0.1], &[0.6, 0.2]));
+        assert!(!c.cuts(&[0.5, 0.0], &[0.5, 0.2]), "endpoint on the crack does not cut");
+    }
+
+    #[test]
+    fn rectangle_cuts_crossing_bonds_only() {
+        let c = Precrack::Rectangle { origin: [0.0, 0.0, 0.0], edge1: [1.0, 0.0, 0.0], edge2: [0.0, 0.0, 1.0] };
+        assert!(c.cuts(&[0.5, -0.1, 0.5], &[0.5, 0.1, 0.5]));
+        assert!(!c.cuts(&[0.5, -0.1, 1.5], &[0.5, 0.1, 1.5]));
+        assert!(!c.cuts(&[0.5, 0.1, 0.5], &[0.5, 0.2, 0.5]));
+    }
+}

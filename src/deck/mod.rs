@@ -1,0 +1,123 @@
+//! Decks: parse (TOML, unknown keys rejected) → validate (physics, with key paths) → build.
+//! Every error names the file, line:column, key path and what was expected.
+
+pub mod build;
+pub mod locate;
+pub mod schema;
+pub mod validate;
+
+pub use locate::KeyPath;
+pub use schema::Deck;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// One problem found in a deck, before it is located in the text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeckIssue {
+    pub path: KeyPath,
+    pub message: String,
+}
+
+impl DeckIssue {
+    pub fn new(path: &str, message: impl Into<String>) -> Self {
+        DeckIssue { path: KeyPath::parse(path), message: message.into() }
+    }
+}
+
+/// A located problem: `file:line:column: key.path: message`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocatedIssue {
+    pub file: String,
+    pub line: usize,
+    pub column: usize,
+    pub path: String,
+    pub message: String,
+}
+
+impl fmt::Display for LocatedIssue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.path.is_empty() {
+            write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.message)
+        } else {
+            write!(f, "{}:{}:{}: {}: {}", self.file, self.line, self.column, self.path, self.message)
+        }
+    }
+}
+
+/// Why a deck could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum DeckError {
+    #[error("{file}: cannot read the deck: {source}")]
+    Io { file: String, source: std::io::Error },
+    #[error("{}", .0.iter().map(|i| i.to_string()).collect::<Vec<_>>().join("\n"))]
+    Invalid(Vec<LocatedIssue>),
+}
+
+impl DeckError {
+    /// The located issues (empty for I/O errors).
+    pub fn issues(&self) -> &[LocatedIssue] {
+        match self {
+            DeckError::Invalid(v) => v,
+            DeckError::Io { .. } => &[],
+        }
+    }
+}
+
+/// A parsed and validated deck together with its text, so later (build-time) problems can
+/// still be located.
+#[derive(Debug, Clone)]
+pub struct LoadedDeck {
+    pub deck: Deck,
+    pub file: PathBuf,
+    pub src: String,
+}
+
+impl LoadedDeck {
+    /// Reads, parses and validates a deck file.
+    pub fn from_file(path: &Path) -> Result<Self, DeckError> {
+        let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io { file: path.display().to_string(), source })?;
+        Self::from_str(&src, path)
+    }
+
+    /// Parses and validates deck text; `file` names it in messages and anchors relative paths.
+    pub fn from_str(src: &str, file: &Path) -> Result<Self, DeckError> {
+        let name = file.display().to_string();
+        let deck: Deck = match toml::from_str(src) {
+            Ok(d) => d,
+            Err(e) => {
+                let offset = e.span().map(|r| r.start).unwrap_or(0);
+                let (line, column) = locate::line_col(src, offset);
+                let path = locate::Located::new(src).path_at(offset).to_string();
+                let message = e.message().trim().replace('\n', " ");
+                return Err(DeckError::Invalid(vec![LocatedIssue { file: name, line, column, path, message }]));
+            }
+        };
+        let loaded = LoadedDeck { deck, file: file.to_path_buf(), src: src.to_string() };
+        let issues = validate::validate(&loaded.deck);
+        if !issues.is_empty() {
+            return Err(loaded.locate(issues));
+        }
+        Ok(loaded)
+    }
+
+    /// Turns issues into a located error.
+    pub fn locate(&self, issues: Vec<DeckIssue>) -> DeckError {
+        let located = locate::Located::new(&self.src);
+        DeckError::Invalid(
+            issues
+                .into_iter()
+                .map(|i| {
+                    let offset = located.span_of(&i.path).map(|r| r.start).unwrap_or(0);
+                    let (line, column) = locate::line_col(&self.src, offset);
+                    LocatedIssue { file: self.file.display().to_string(), line, column, path: i.path.to_string(), message: i.message }
+                })
+                .collect(),
+        )
+    }
+
+    /// The folder relative paths in the deck are taken from.
+    pub fn base_dir(&self) -> PathBuf {
+        self.file.parent().map(Path::to_path_buf).unwrap_or_default()
+    }
+}

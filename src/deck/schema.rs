@@ -1,0 +1,257 @@
+//! The TOML deck, mapped 1:1 onto types. Unknown keys are errors everywhere.
+//! The reference for users is `docs/deck.md`; every key is in SI units.
+
+use crate::bonds::{PartialVolume, Precrack};
+use crate::geometry::Shape;
+use crate::loading::{Kinematic, TimeFunction};
+use crate::material::lps::Influence;
+use crate::material::MicromodulusProfile;
+use serde::{Deserialize, Serialize};
+
+/// A whole deck.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Deck {
+    /// Deck format version; must be 1.
+    pub version: u32,
+    #[serde(default)]
+    pub title: String,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// 2D only: "stress" or "strain".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane: Option<Plane>,
+    /// 2D only: out-of-plane thickness (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thickness: Option<f64>,
+    pub discretization: Discretization,
+    pub material: MaterialDeck,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<BlockDeck>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub node_sets: Vec<NodeSetDeck>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub precracks: Vec<Precrack>,
+    /// Names of node sets whose bonds never break.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub no_fail: Vec<String>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boundary_conditions: Vec<BoundaryDeck>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub loads: Vec<LoadDeck>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub initial_velocities: Vec<InitialVelocityDeck>,
+    pub solver: SolverDeck,
+    #[serde(default)]
+    pub output: OutputDeck,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Plane {
+    Stress,
+    Strain,
+}
+
+/// Where the nodes come from.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Discretization {
+    /// Uniform square/cubic lattice over a shape, nodes at cell centres.
+    Lattice {
+        shape: Shape,
+        /// Lattice spacing Δx (m).
+        spacing: f64,
+        /// Horizon δ (m); give this or `horizon_ratio`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        horizon: Option<f64>,
+        /// δ/Δx; give this or `horizon`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        horizon_ratio: Option<f64>,
+        #[serde(default)]
+        partial_volume: PartialVolume,
+    },
+    /// Nodes read from a text file: `x y [z] volume [block]` (2D: area instead of volume).
+    PointCloud {
+        /// Path, relative to the deck's folder.
+        file: String,
+        /// Horizon δ (m).
+        horizon: f64,
+        #[serde(default)]
+        partial_volume: PartialVolume,
+    },
+}
+
+/// The material (one for the whole body).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MaterialDeck {
+    /// Bond-based prototype microelastic brittle material.
+    Pmb {
+        /// Mass density ρ (kg/m³).
+        density: f64,
+        /// Young's modulus E (Pa); or give `micromodulus`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        youngs_modulus: Option<f64>,
+        /// c0 (N/m⁶ in 3D; per unit thickness, N/m⁵, in 2D); or give `youngs_modulus`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        micromodulus: Option<f64>,
+        /// Only to confirm the bond-based value (1/3 plane stress, 1/4 otherwise).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        poisson_ratio: Option<f64>,
+        /// G0 (J/m²) to calibrate s0; or give `critical_stretch`; neither: bonds never break.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fracture_energy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        critical_stretch: Option<f64>,
+        #[serde(default)]
+        profile: MicromodulusProfile,
+    },
+    /// Linear peridynamic solid (ordinary state-based).
+    Lps {
+        density: f64,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fracture_energy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        critical_stretch: Option<f64>,
+        #[serde(default)]
+        influence: Influence,
+    },
+}
+
+/// Assigns a block id to the nodes in a region (later entries win).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlockDeck {
+    pub id: u32,
+    pub region: Shape,
+}
+
+/// A named node set selected by region.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeSetDeck {
+    pub name: String,
+    pub region: Shape,
+}
+
+/// Displacement component.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Component {
+    X,
+    Y,
+    Z,
+}
+
+impl Component {
+    pub fn index(self) -> usize {
+        match self {
+            Component::X => 0,
+            Component::Y => 1,
+            Component::Z => 2,
+        }
+    }
+}
+
+/// Prescribed displacement (m) or velocity (m/s) `value · time(t)` of one component.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryDeck {
+    pub set: String,
+    pub kind: Kinematic,
+    pub component: Component,
+    pub value: f64,
+    #[serde(default)]
+    pub time: TimeFunction,
+}
+
+/// Distributed loads on a node set.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LoadDeck {
+    /// Body force density (N/m³).
+    BodyForce {
+        set: String,
+        value: Vec<f64>,
+        #[serde(default)]
+        time: TimeFunction,
+    },
+    /// Traction (Pa) over a surface of `area` (m²), applied as a body force spread over the
+    /// volume of the set (the boundary layer).
+    Traction {
+        set: String,
+        value: Vec<f64>,
+        area: f64,
+        #[serde(default)]
+        time: TimeFunction,
+    },
+}
+
+/// Initial velocity (m/s) of a node set (`all` for every node).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialVelocityDeck {
+    pub set: String,
+    pub value: Vec<f64>,
+}
+
+/// The solver.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum SolverDeck {
+    /// Explicit velocity-Verlet dynamics.
+    Explicit {
+        /// Number of steps; give this or `end_time`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        steps: Option<u64>,
+        /// Simulated duration (s); give this or `steps`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        end_time: Option<f64>,
+        /// Fixed time step (s); if absent, `safety_factor ×` the stable estimate.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        dt: Option<f64>,
+        #[serde(default = "default_safety")]
+        safety_factor: f64,
+        /// Viscous damping coefficient η (1/s).
+        #[serde(default)]
+        damping: f64,
+    },
+}
+
+fn default_safety() -> f64 {
+    0.8
+}
+
+/// What to write and how often.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputDeck {
+    /// Steps between history rows (0: only first and last).
+    #[serde(default = "default_history")]
+    pub history_interval: u64,
+    /// Number of field snapshots over the run (VTU, and PNG in 2D), besides the initial one.
+    #[serde(default = "default_snapshots")]
+    pub snapshots: u64,
+    /// Write PNG damage maps (2D only).
+    #[serde(default = "default_true")]
+    pub png: bool,
+}
+
+fn default_history() -> u64 {
+    10
+}
+fn default_snapshots() -> u64 {
+    10
+}
+fn default_true() -> bool {
+    true
+}
+
+impl Default for OutputDeck {
+    fn default() -> Self {
+        OutputDeck { history_interval: default_history(), snapshots: default_snapshots(), png: true }
+    }
+}

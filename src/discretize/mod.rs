@@ -1,0 +1,23 @@
+//! Turning a shape or a file into nodes: positions, volumes and cell sizes.
+
+pub mod lattice;
+pub mod reorder;
+
+/// Nodes before they become a `Body`: reference positions (padded to 3 components),
+/// volumes (m³; in 2D area × thickness) and the cell size r_j used by partial volumes.
+#[derive(Debug, Clone, Default)]
+pub struct NodeCloud {
+    pub positions: Vec<[f64; 3]>,
+    pub volumes: Vec<f64>,
+    pub cell_sizes: Vec<f64>,
+    pub blocks: Vec<u32>,
+}
+
+impl NodeCloud {
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+}

@@ -1,0 +1,21 @@
+//! peridyn: peridynamic fracture simulation in 2D and 3D.
+//!
+//! The flow of a run: a deck (`deck`) or Rust code builds a `Body` (`discretize`, `geometry`),
+//! its `Bonds` (`bonds`), a material (`material`) and `Loading`; a `solver::Simulation`
+//! advances the `State`, and observers (`observe`, `plot`) write fields, histories and pictures.
+
+pub mod body;
+pub mod bonds;
+pub mod counters;
+pub mod discretize;
+pub mod geometry;
+pub mod loading;
+pub mod material;
+pub mod math;
+pub mod solver;
+pub mod state;
+pub mod deck;
+pub mod observe;
+pub mod plot;
+pub mod run;
+pub mod bench;

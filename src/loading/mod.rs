@@ -1,0 +1,117 @@
+//! Boundary conditions, loads and initial conditions on named node sets.
+
+pub mod time_function;
+
+pub use time_function::TimeFunction;
+
+use crate::body::Body;
+use crate::math::Vector;
+use crate::state::State;
+use serde::{Deserialize, Serialize};
+
+/// What a boundary condition prescribes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kinematic {
+    Displacement,
+    Velocity,
+}
+
+/// A prescribed displacement or velocity `value · f(t)` on one component of a node set.
+#[derive(Debug, Clone)]
+pub struct BoundaryCondition {
+    pub set: String,
+    pub nodes: Vec<u32>,
+    pub kind: Kinematic,
+    pub component: usize,
+    pub value: f64,
+    pub time: TimeFunction,
+}
+
+/// A distributed load on a node set: a body force density `value · f(t)` (N/m³), or a total
+/// force (e.g. traction × area) spread over the set's volume.
+#[derive(Debug, Clone)]
+pub struct Load<const D: usize> {
+    pub set: String,
+    pub nodes: Vec<u32>,
+    /// Body force density (N/m³) at f = 1.
+    pub density: Vector<D>,
+    pub time: TimeFunction,
+}
+
+/// All boundary conditions and loads of a run.
+#[derive(Debug, Clone, Default)]
+pub struct Loading<const D: usize> {
+    pub conditions: Vec<BoundaryCondition>,
+    pub loads: Vec<Load<D>>,
+    /// Viscous damping coefficient (1/s): adds −ρ·η·v to the force density.
+    pub damping: f64,
+}
+
+impl<const D: usize> Loading<D> {
+    /// Prescribes the half-step velocities (t = t_n + dt/2) of velocity conditions.
+    pub fn apply_half_step_velocity(&self, state: &mut State<D>, t_half: f64) {
+        for bc in self.conditions.iter().filter(|c| c.kind == Kinematic::Velocity) {
+            let v = bc.value * bc.time.value(t_half);
+            for &i in &bc.nodes {
+                state.v[i as usize][bc.component] = v;
+            }
+        }
+    }
+
+    /// After the drift to t: overwrites displacements of displacement conditions.
+    pub fn apply_displacements(&self, body: &Body<D>, state: &mut State<D>, t: f64) {
+        for bc in self.conditions.iter().filter(|c| c.kind == Kinematic::Displacement) {
+            let u = bc.value * bc.time.value(t);
+            for &i in &bc.nodes {
+                let i = i as usize;
+                state.u[i][bc.component] = u;
+                state.current[i][bc.component] = body.positions[i][bc.component] + u;
+            }
+        }
+    }
+
+    /// At the end of a step (time t): sets the velocities of every constrained component.
+    pub fn apply_end_velocities(&self, state: &mut State<D>, t: f64) {
+        for bc in &self.conditions {
+            let v = match bc.kind {
+                Kinematic::Velocity => bc.value * bc.time.value(t),
+                Kinematic::Displacement => bc.value * bc.time.rate(t),
+            };
+            for &i in &bc.nodes {
+                state.v[i as usize][bc.component] = v;
+            }
+        }
+    }
+
+    /// Fills `state.body_force` with the external body-force density at time t.
+    pub fn body_forces(&self, state: &mut State<D>, t: f64) {
+        for b in state.body_force.iter_mut() {
+            *b = Vector::zeros();
+        }
+        for load in &self.loads {
+            let f = load.density * load.time.value(t);
+            for &i in &load.nodes {
+                state.body_force[i as usize] += f;
+            }
+        }
+    }
+
+    /// A per-node, per-component mask of constrained degrees of freedom.
+    pub fn constrained_mask(&self, n: usize) -> Vec<[bool; 3]> {
+        let mut mask = vec![[false; 3]; n];
+        for bc in &self.conditions {
+            for &i in &bc.nodes {
+                mask[i as usize][bc.component] = true;
+            }
+        }
+        mask
+    }
+}
+
+/// Sets an initial velocity on a node set.
+pub fn set_initial_velocity<const D: usize>(state: &mut State<D>, nodes: &[u32], v: Vector<D>) {
+    for &i in nodes {
+        state.v[i as usize] = v;
+    }
+}

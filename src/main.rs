@@ -1,0 +1,80 @@
+//! The `peridyn` command line: a thin layer over the library.
+
+use clap::{Parser, Subcommand};
+use peridyn::deck::LoadedDeck;
+use peridyn::run::{check, run, RunOptions};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "peridyn", version, about = "Peridynamic fracture simulation in 2D and 3D")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a deck: fields (VTU/PVD), history (CSV), damage maps (PNG, 2D), resolved deck.
+    Run {
+        deck: PathBuf,
+        /// Results folder (default: results/<deck name>).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Worker threads (default: all cores). Results are identical for any count.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress output.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Validate a deck and print the model it builds (nodes, bonds, δ/Δx, constants, dt, memory).
+    Check {
+        deck: PathBuf,
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
+    Bench {
+        /// Target number of directed bonds per case.
+        #[arg(long, default_value_t = 4_000_000)]
+        bonds: usize,
+        /// Steps per measurement.
+        #[arg(long, default_value_t = 20)]
+        steps: u64,
+        /// Thread counts to measure, comma separated (default: 1 and all cores).
+        #[arg(long, value_delimiter = ',')]
+        threads: Vec<usize>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result: Result<(), String> = match cli.command {
+        Command::Run { deck, output, threads, quiet } => (|| {
+            let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
+            let name = deck.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "run".into());
+            let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(name));
+            let summary = run(&ld, &RunOptions { out_dir, threads, quiet }).map_err(|e| e.to_string())?;
+            println!("{summary}");
+            Ok(())
+        })(),
+        Command::Check { deck, threads } => (|| {
+            let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
+            let report = check(&ld, threads).map_err(|e| e.to_string())?;
+            println!("{}: deck is valid\n{report}", deck.display());
+            Ok(())
+        })(),
+        Command::Bench { bonds, steps, threads } => {
+            peridyn::bench::run_benchmarks(bonds, steps, &threads);
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("error: {msg}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,172 @@
+//! Linear peridynamic solid (ordinary state-based; Silling et al. 2007), seed 002 §2.1,
+//! Eqs. (3)–(5), in 3D, 2D plane stress (γ-scaled form) and 2D plane strain, with
+//! critical-stretch failure.
+
+use super::{BondGeom, Dimensionality, Elasticity, Material};
+use crate::body::Body;
+use crate::bonds::{Bonds, Quadrature};
+use serde::{Deserialize, Serialize};
+
+/// Influence function ω(|ξ|).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Influence {
+    /// ω = 1 (Peridigm's default, used by seed 002).
+    #[default]
+    Constant,
+    /// ω = δ/|ξ|.
+    Inverse,
+}
+
+/// Per-node state of the pre-pass: the dilatation θ (before: the weighted sum Σ ω|ξ| e w).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LpsPoint {
+    pub theta: f64,
+}
+
+/// LPS material. The scalar force state of node i on bond ξ is
+/// t = (a/m) θ ω|ξ| + (b/m) ω (e − c_iso θ |ξ|), with θ = (k_θ/m) Σ ω|ξ| e w.
+#[derive(Debug, Clone)]
+pub struct Lps {
+    pub elasticity: Elasticity,
+    pub influence: Influence,
+    pub horizon: f64,
+    pub s0: f64,
+    pub rho: f64,
+    /// Weighted volume m_i = Σ ω |ξ|² w_ij, fixed at its initial value (as Peridigm does).
+    pub m: Vec<f64>,
+    theta_factor: f64,
+    a_vol: f64,
+    b_dev: f64,
+    c_iso: f64,
+    energy_vol: f64,
+    thickness: f64,
+}
+
+impl Lps {
+    /// Coefficients per dimensionality:
+    /// - 3D (Eqs. 3–4): θ = (3/m)Σ…, t = (3K/m)θω|ξ| + (15μ/m)ω e^d, e^d = e − θ|ξ|/3,
+    ///   W = (K/2)θ² + (15μ/2m) Σ ω (e^d)² w.
+    /// - plane stress (Eq. 5): θ from Eq. 3 unscaled (3/m, 2D m with V = t·A; the notes show only
+    ///   this reading matches Hooke's law), γ = 4μ/(3K + 4μ), t = (γK/m)θω|ξ| + (8μ/m)ω e^d,
+    ///   e^d = e − γθ|ξ|/3, W = (a/2)θ² + (4μ/m)Σ ω (e^d)² w with a = γ[K + 8μ(1−γ)/3]/3
+    ///   (seed 002 notes §2.4; t = ∂W/∂e exactly).
+    /// - plane strain (not in seed 002; derived the same way from W = κ/2 (tr ε)² + μ ε_d:ε_d
+    ///   with κ = λ + μ): θ = (2/m)Σ…, t = (2κ/m)θω|ξ| + (8μ/m)ω e^d, e^d = e − θ|ξ|/2,
+    ///   W = (κ/2)θ² + (4μ/m)Σ ω (e^d)² w.
+    pub fn new(elasticity: Elasticity, influence: Influence, horizon: f64, s0: f64, rho: f64, thickness: f64) -> Self {
+        let (k, mu) = (elasticity.bulk(), elasticity.shear());
+        let (theta_factor, a_vol, b_dev, c_iso, energy_vol) = match elasticity.dimensionality {
+            Dimensionality::ThreeD => (3.0, 3.0 * k, 15.0 * mu, 1.0 / 3.0, k),
+            Dimensionality::PlaneStress => {
+                let gamma = 4.0 * mu / (3.0 * k + 4.0 * mu);
+                let a = gamma * (k + 8.0 * mu * (1.0 - gamma) / 3.0) / 3.0;
+                (3.0, gamma * k, 8.0 * mu, gamma / 3.0, a)
+            }
+            Dimensionality::PlaneStrain => {
+                let kappa = elasticity.in_plane_bulk();
+                (2.0, 2.0 * kappa, 8.0 * mu, 0.5, kappa)
+            }
+        };
+        Lps { elasticity, influence, horizon, s0, rho, m: Vec::new(), theta_factor, a_vol, b_dev, c_iso, energy_vol, thickness }
+    }
+
+    /// Critical stretch of the bond-based model with the same in-plane bulk modulus κ
+    /// (Silling & Askari 2005 in 3D, s0 = sqrt(5G0/(9Kδ)); in 2D seed 001 Eq. 8 rewritten with
+    /// κ: s0 = sqrt(πG0/(3κδ))). State-based energy is not a sum of bond energies, so this is
+    /// the customary approximation, not an exact G0 calibration.
+    pub fn critical_stretch_from_g0(g0: f64, elasticity: &Elasticity, horizon: f64) -> f64 {
+        let kappa = elasticity.in_plane_bulk();
+        match elasticity.dimensionality {
+            Dimensionality::ThreeD => (5.0 * g0 / (9.0 * kappa * horizon)).sqrt(),
+            _ => (std::f64::consts::PI * g0 / (3.0 * kappa * horizon)).sqrt(),
+        }
+    }
+
+    #[inline(always)]
+    fn omega(&self, ref_len: f64) -> f64 {
+        match self.influence {
+            Influence::Constant => 1.0,
+            Influence::Inverse => self.horizon / ref_len,
+        }
+    }
+
+    /// Scalar force state t⟨ξ⟩ of a node with weighted volume m and dilatation θ.
+    #[inline(always)]
+    fn force_state(&self, m: f64, theta: f64, b: &BondGeom) -> f64 {
+        let w = self.omega(b.ref_len);
+        let e = b.len - b.ref_len;
+        (self.a_vol * theta * w * b.ref_len + self.b_dev * w * (e - self.c_iso * theta * b.ref_len)) / m
+    }
+}
+
+impl<const D: usize> Material<D> for Lps {
+    type Point = LpsPoint;
+    const NEEDS_PREPASS: bool = true;
+
+    fn setup(&mut self, body: &Body<D>, bonds: &Bonds, quad: &Quadrature) {
+        self.m = (0..body.len())
+            .map(|i| {
+                bonds
+                    .family(i)
+                    .map(|b| {
+                        let l = bonds.ref_lengths[b];
+                        let j = bonds.neighbors[b] as usize;
+                        self.omega(l) * l * l * quad.phi(l, body.horizons[i], j) * body.volumes[j]
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+    }
+
+    #[inline(always)]
+    fn accumulate(&self, acc: &mut LpsPoint, b: &BondGeom) {
+        acc.theta += self.omega(b.ref_len) * b.ref_len * (b.len - b.ref_len) * b.weight();
+    }
+
+    #[inline(always)]
+    fn finish_point(&self, i: usize, acc: LpsPoint) -> LpsPoint {
+        let m = self.m[i];
+        LpsPoint { theta: if m > 0.0 { self.theta_factor * acc.theta / m } else { 0.0 } }
+    }
+
+    /// Dual force density (T_i⟨ξ⟩ − T_j⟨−ξ⟩), seed 002 Eq. (1), with each state weighted by its
+    /// own partial-volume factor.
+    #[inline(always)]
+    fn pair_force(&self, i: usize, j: usize, b: &BondGeom, pi: &LpsPoint, pj: &LpsPoint) -> f64 {
+        self.force_state(self.m[i], pi.theta, b) * b.phi_ij + self.force_state(self.m[j], pj.theta, b) * b.phi_ji
+    }
+
+    #[inline(always)]
+    fn bond_energy(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
+        let ed = (b.len - b.ref_len) - self.c_iso * p.theta * b.ref_len;
+        0.5 * self.b_dev / self.m[i] * self.omega(b.ref_len) * ed * ed * b.weight()
+    }
+
+    fn point_energy(&self, _i: usize, p: &LpsPoint, bond_sum: f64) -> f64 {
+        0.5 * self.energy_vol * p.theta * p.theta + bond_sum
+    }
+
+    fn critical_stretch(&self) -> f64 {
+        self.s0
+    }
+
+    /// Bond-based equivalent with the same P-wave modulus M: c = 18K'/(πδ⁴), K' = M/1.8 in 3D;
+    /// c = 12κ'/(πδ³ t), κ' = 2M/3 in 2D (constant micromodulus, seed 001 Eq. 6 rewritten).
+    fn bond_stiffness(&self, ref_len: f64) -> f64 {
+        let m = self.elasticity.p_wave_modulus();
+        let c = match self.elasticity.dimensionality {
+            Dimensionality::ThreeD => 18.0 * (m / 1.8) / (std::f64::consts::PI * self.horizon.powi(4)),
+            _ => 12.0 * (2.0 * m / 3.0) / (std::f64::consts::PI * self.horizon.powi(3) * self.thickness),
+        };
+        c / ref_len
+    }
+
+    fn density(&self) -> f64 {
+        self.rho
+    }
+
+    fn elasticity(&self) -> Elasticity {
+        self.elasticity
+    }
+}

@@ -1,0 +1,170 @@
+//! Prototype microelastic brittle (PMB) bond-based material (Silling & Askari 2005) with a
+//! constant or conical micromodulus and irreversible critical-stretch failure.
+
+use super::{BondGeom, Dimensionality, Elasticity, Material};
+use serde::{Deserialize, Serialize};
+
+/// Shape of the micromodulus along the bond, c(ξ) = c0 · g(ξ).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MicromodulusProfile {
+    /// g = 1 (seed 001, Eq. 6).
+    #[default]
+    Constant,
+    /// g = 1 − |ξ|/δ.
+    Conical,
+}
+
+impl MicromodulusProfile {
+    /// Moment M_k = ∫_0^δ g(ξ) ξ^k dξ, the integral every calibration reduces to.
+    pub fn moment(self, k: i32, horizon: f64) -> f64 {
+        let kf = k as f64;
+        match self {
+            MicromodulusProfile::Constant => horizon.powi(k + 1) / (kf + 1.0),
+            MicromodulusProfile::Conical => horizon.powi(k + 1) / ((kf + 1.0) * (kf + 2.0)),
+        }
+    }
+}
+
+/// Poisson's ratio a bond-based model is tied to: 1/3 in plane stress, 1/4 otherwise
+/// (seed 001, §2.1).
+pub fn bond_based_poisson_ratio(dim: Dimensionality) -> f64 {
+    match dim {
+        Dimensionality::PlaneStress => 1.0 / 3.0,
+        _ => 0.25,
+    }
+}
+
+/// PMB material with its calibrated constants.
+#[derive(Debug, Clone)]
+pub struct Pmb {
+    /// c0 per unit volume² (N/m⁶): in 2D the per-thickness micromodulus divided by the thickness.
+    pub c0: f64,
+    /// c0 as the papers write it: per unit thickness in 2D (N/m⁵), N/m⁶ in 3D.
+    pub c0_paper: f64,
+    pub profile: MicromodulusProfile,
+    pub horizon: f64,
+    pub s0: f64,
+    pub rho: f64,
+    pub elasticity: Elasticity,
+}
+
+impl Pmb {
+    /// Micromodulus c0 (paper units) matching the classical energy of an isotropic expansion:
+    /// 3D c0 = 9K/(2π M3), 2D c0 = 4κ/(π M2). For the constant profile these are seed 001,
+    /// Eq. (6): 12E/(πδ⁴), 9E/(πδ³) (plane stress), 48E/(5πδ³) (plane strain).
+    pub fn micromodulus(e: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64) -> f64 {
+        let el = Elasticity { youngs_modulus: e, poisson_ratio: bond_based_poisson_ratio(dim), dimensionality: dim };
+        match dim {
+            Dimensionality::ThreeD => 9.0 * el.bulk() / (2.0 * std::f64::consts::PI * profile.moment(3, horizon)),
+            _ => 4.0 * el.in_plane_bulk() / (std::f64::consts::PI * profile.moment(2, horizon)),
+        }
+    }
+
+    /// Young's modulus represented by a given micromodulus (inverse of `micromodulus`).
+    pub fn youngs_modulus_of(c0: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64) -> f64 {
+        c0 / Self::micromodulus(1.0, dim, profile, horizon)
+    }
+
+    /// Critical stretch from the fracture energy: the work to break every bond across a unit
+    /// plane equals G0 (seed 001, Eqs. 7–8, with the corrected limit acos(z/ξ)). It reduces to
+    /// G0 = (π/2) c0 s0² M4 in 3D and G0 = c0 s0² M3 in 2D, i.e. for the constant profile
+    /// s0 = sqrt(5G0/(6Eδ)), sqrt(4πG0/(9Eδ)) and sqrt(5πG0/(12Eδ)).
+    pub fn critical_stretch_from_g0(g0: f64, c0: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64) -> f64 {
+        match dim {
+            Dimensionality::ThreeD => (2.0 * g0 / (std::f64::consts::PI * c0 * profile.moment(4, horizon))).sqrt(),
+            _ => (g0 / (c0 * profile.moment(3, horizon))).sqrt(),
+        }
+    }
+
+    /// Builds a PMB material. `c0_paper` is per unit thickness in 2D; `thickness` is 1 in 3D.
+    pub fn new(c0_paper: f64, s0: f64, rho: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64, thickness: f64) -> Self {
+        let e = Self::youngs_modulus_of(c0_paper, dim, profile, horizon);
+        Pmb {
+            c0: if dim == Dimensionality::ThreeD { c0_paper } else { c0_paper / thickness },
+            c0_paper,
+            profile,
+            horizon,
+            s0,
+            rho,
+            elasticity: Elasticity { youngs_modulus: e, poisson_ratio: bond_based_poisson_ratio(dim), dimensionality: dim },
+        }
+    }
+
+    /// c(ξ) per unit volume² at a bond length.
+    #[inline(always)]
+    fn c(&self, ref_len: f64) -> f64 {
+        match self.profile {
+            MicromodulusProfile::Constant => self.c0,
+            MicromodulusProfile::Conical => self.c0 * (1.0 - ref_len / self.horizon).max(0.0),
+        }
+    }
+}
+
+impl<const D: usize> Material<D> for Pmb {
+    type Point = ();
+    const NEEDS_PREPASS: bool = false;
+
+    /// f = c(ξ) s (seed 001, Eq. 4), with the pair weighted by ½(φ_ij + φ_ji) so that the
+    /// force is the exact gradient of the discrete energy on non-uniform grids too.
+    #[inline(always)]
+    fn pair_force(&self, _i: usize, _j: usize, b: &BondGeom, _: &(), _: &()) -> f64 {
+        self.c(b.ref_len) * b.stretch() * 0.5 * (b.phi_ij + b.phi_ji)
+    }
+
+    /// Half of the bond micropotential ω = ½ c s² |ξ| (seed 001, Eq. 3) goes to each end.
+    #[inline(always)]
+    fn bond_energy(&self, _i: usize, b: &BondGeom, _: &()) -> f64 {
+        let s = b.stretch();
+        0.25 * self.c(b.ref_len) * s * s * b.ref_len * b.weight()
+    }
+
+    fn critical_stretch(&self) -> f64 {
+        self.s0
+    }
+
+    fn bond_stiffness(&self, ref_len: f64) -> f64 {
+        self.c(ref_len) / ref_len
+    }
+
+    fn density(&self) -> f64 {
+        self.rho
+    }
+
+    fn elasticity(&self) -> Elasticity {
+        self.elasticity
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn constant_profile_reproduces_seed001_eq6_and_eq8() {
+        let (e, g0, d) = (192e9, 83e3, 3e-3);
+        let c = Pmb::micromodulus(e, Dimensionality::ThreeD, MicromodulusProfile::Constant, d);
+        assert!((c / (12.0 * e / (PI * d.powi(4))) - 1.0).abs() < 1e-14);
+        let c = Pmb::micromodulus(e, Dimensionality::PlaneStress, MicromodulusProfile::Constant, d);
+        assert!((c / (9.0 * e / (PI * d.powi(3))) - 1.0).abs() < 1e-14);
+        let s0 = Pmb::critical_stretch_from_g0(g0, c, Dimensionality::PlaneStress, MicromodulusProfile::Constant, d);
+        assert!((s0 / (4.0 * PI * g0 / (9.0 * e * d)).sqrt() - 1.0).abs() < 1e-14);
+        let c = Pmb::micromodulus(e, Dimensionality::PlaneStrain, MicromodulusProfile::Constant, d);
+        assert!((c / (48.0 * e / (5.0 * PI * d.powi(3))) - 1.0).abs() < 1e-14);
+        let s0 = Pmb::critical_stretch_from_g0(g0, c, Dimensionality::PlaneStrain, MicromodulusProfile::Constant, d);
+        assert!((s0 / (5.0 * PI * g0 / (12.0 * e * d)).sqrt() - 1.0).abs() < 1e-14);
+        let c = Pmb::micromodulus(e, Dimensionality::ThreeD, MicromodulusProfile::Constant, d);
+        let s0 = Pmb::critical_stretch_from_g0(g0, c, Dimensionality::ThreeD, MicromodulusProfile::Constant, d);
+        assert!((s0 / (5.0 * g0 / (6.0 * e * d)).sqrt() - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn seed000_pmma_table_values() {
+        // Seed 000 notes, §2.3 table: E = 3.24 GPa, G0 = 200 J/m², δ = 0.2 mm → c = 1.160e21, s0 = 0.02076.
+        let c = Pmb::micromodulus(3.24e9, Dimensionality::PlaneStress, MicromodulusProfile::Constant, 0.2e-3);
+        assert!((c / 1.160e21 - 1.0).abs() < 1e-3);
+        let s0 = Pmb::critical_stretch_from_g0(200.0, c, Dimensionality::PlaneStress, MicromodulusProfile::Constant, 0.2e-3);
+        assert!((s0 / 0.02076 - 1.0).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,12 @@
+//! Observers of a run and the file writers they use.
+
+pub mod atomic;
+pub mod csv;
+pub mod history;
+pub mod observer;
+pub mod progress;
+pub mod pvd;
+pub mod snapshots;
+pub mod vtu;
+
+pub use observer::{Every, Observer, StepView};

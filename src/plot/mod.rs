@@ -1,0 +1,3 @@
+pub mod curve;
+pub mod damage_map;
+mod font;

@@ -1,0 +1,7 @@
+//! Solvers: the force engine and the explicit velocity-Verlet integrator.
+
+pub mod forces;
+pub mod verlet;
+
+pub use forces::ForceEngine;
+pub use verlet::{Simulation, StepError};

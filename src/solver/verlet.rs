@@ -1,0 +1,180 @@
+//! Explicit dynamics with velocity Verlet, the simulation bundle it advances, and the energy
+//! bookkeeping (kinetic, strain, external work, viscous dissipation).
+
+use super::ForceEngine;
+use crate::body::Body;
+use crate::bonds::{Bonds, PartialVolume};
+use crate::counters::Counters;
+use crate::loading::Loading;
+use crate::material::Material;
+use crate::math::Vector;
+use crate::state::State;
+use std::time::Instant;
+
+/// A run that cannot continue, with the diagnosis.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    #[error("the run went unstable at step {step} (t = {time:e} s): {quantity} of node {node} at x = {position:?} is {value}; lower the time step (safety_factor) or check the loads")]
+    Unstable { step: u64, time: f64, node: usize, position: Vec<f64>, quantity: &'static str, value: f64 },
+}
+
+/// Everything a run needs, with public fields (the reference data is not to be changed once
+/// the run has started).
+pub struct Simulation<const D: usize, M: Material<D>> {
+    pub body: Body<D>,
+    pub bonds: Bonds,
+    pub engine: ForceEngine<D, M>,
+    pub loading: Loading<D>,
+    pub state: State<D>,
+    /// Time step in use (s).
+    pub dt: f64,
+    /// Silling–Askari stable time step estimate (s).
+    pub dt_stable: f64,
+    pub counters: Counters,
+    constrained: Vec<(usize, usize)>,
+}
+
+impl<const D: usize, M: Material<D>> Simulation<D, M> {
+    /// Builds the force engine, evaluates the initial forces and the stable time step.
+    /// `dt = None` uses `safety_factor × dt_stable`.
+    pub fn new(body: Body<D>, bonds: Bonds, material: M, rule: PartialVolume, loading: Loading<D>, dt: Option<f64>, safety_factor: f64) -> Self {
+        let engine = ForceEngine::new(material, &body, &bonds, rule);
+        let dt_stable = engine.stable_time_step(&body, &bonds);
+        let mask = loading.constrained_mask(body.len());
+        let constrained = (0..body.len()).flat_map(|i| (0..D).map(move |k| (i, k))).filter(|&(i, k)| mask[i][k]).collect();
+        let state = State::new(&body, &bonds);
+        let mut sim = Simulation { body, bonds, engine, loading, state, dt: dt.unwrap_or(safety_factor * dt_stable), dt_stable, counters: Counters::default(), constrained };
+        sim.loading.apply_displacements(&sim.body, &mut sim.state, 0.0);
+        sim.loading.apply_end_velocities(&mut sim.state, 0.0);
+        sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
+        sim.loading.body_forces(&mut sim.state, 0.0);
+        sim
+    }
+
+    /// Acceleration of node i from the last force evaluation and velocity `v`.
+    #[inline(always)]
+    fn acceleration(&self, i: usize, v: &Vector<D>, rho: f64) -> Vector<D> {
+        (self.state.force[i] + self.state.body_force[i]) / rho - v * self.loading.damping
+    }
+
+    /// One velocity-Verlet step: half-kick → prescribed velocities → drift → prescribed
+    /// displacements → forces → half-kick → end-of-step velocities.
+    pub fn step(&mut self) -> Result<u64, StepError> {
+        let dt = self.dt;
+        let rho = self.engine.material.density();
+        let t0 = self.state.time;
+        let t1 = t0 + dt;
+        let started = Instant::now();
+
+        // Constrained degrees of freedom: remember (u, v, V(f+b)) to book the work the
+        // constraints do over the step (trapezoidal rule).
+        let before: Vec<(f64, f64, f64)> = self
+            .constrained
+            .iter()
+            .map(|&(i, k)| (self.state.u[i][k], self.state.v[i][k], self.body.volumes[i] * (self.state.force[i][k] + self.state.body_force[i][k])))
+            .collect();
+        let u_old_free_work = self.body_force_power_start();
+
+        for i in 0..self.body.len() {
+            let a = self.acceleration(i, &self.state.v[i], rho);
+            self.state.v[i] += a * (0.5 * dt);
+        }
+        self.loading.apply_half_step_velocity(&mut self.state, t0 + 0.5 * dt);
+        let mut dissipated = 0.0;
+        for i in 0..self.body.len() {
+            let v = self.state.v[i];
+            dissipated += rho * self.body.volumes[i] * self.loading.damping * v.norm_squared() * dt;
+            self.state.u[i] += v * dt;
+            self.state.current[i] = self.body.positions[i] + self.state.u[i];
+        }
+        self.loading.apply_displacements(&self.body, &mut self.state, t1);
+        self.counters.integrate += started.elapsed();
+
+        let started = Instant::now();
+        let broken = self.engine.compute(&self.body, &self.bonds, &mut self.state);
+        self.loading.body_forces(&mut self.state, t1);
+        self.counters.force += started.elapsed();
+
+        let started = Instant::now();
+        for i in 0..self.body.len() {
+            let a = self.acceleration(i, &self.state.v[i], rho);
+            self.state.v[i] += a * (0.5 * dt);
+        }
+        self.loading.apply_end_velocities(&mut self.state, t1);
+
+        // Work of the constraints: ΔKE of the dof minus the work of the other forces on it.
+        let mut work = self.body_force_work(&u_old_free_work);
+        for (&(i, k), &(u0, v0, f0)) in self.constrained.iter().zip(&before) {
+            let (u1, v1) = (self.state.u[i][k], self.state.v[i][k]);
+            let f1 = self.body.volumes[i] * (self.state.force[i][k] + self.state.body_force[i][k]);
+            work += 0.5 * rho * self.body.volumes[i] * (v1 * v1 - v0 * v0) - 0.5 * (f0 + f1) * (u1 - u0);
+        }
+        self.state.external_work += work;
+        self.state.dissipated_viscous += dissipated;
+        self.state.time = t1;
+        self.state.step += 1;
+        self.counters.integrate += started.elapsed();
+        self.counters.steps += 1;
+        self.counters.bonds_broken += broken;
+        Ok(broken)
+    }
+
+    /// Body-force densities and displacements of loaded free nodes at the start of a step.
+    fn body_force_power_start(&self) -> Vec<(Vector<D>, Vector<D>)> {
+        if self.loading.loads.is_empty() {
+            return Vec::new();
+        }
+        (0..self.body.len()).map(|i| (self.state.body_force[i], self.state.u[i])).collect()
+    }
+
+    /// Work of body forces over the step on unconstrained components (trapezoidal rule).
+    fn body_force_work(&self, start: &[(Vector<D>, Vector<D>)]) -> f64 {
+        if start.is_empty() {
+            return 0.0;
+        }
+        let mask = self.loading.constrained_mask(self.body.len());
+        let mut w = 0.0;
+        for (i, (b0, u0)) in start.iter().enumerate() {
+            for k in 0..D {
+                if !mask[i][k] {
+                    w += self.body.volumes[i] * 0.5 * (b0[k] + self.state.body_force[i][k]) * (self.state.u[i][k] - u0[k]);
+                }
+            }
+        }
+        w
+    }
+
+    /// Checks every node for a non-finite displacement, velocity or force; names the first.
+    pub fn check_finite(&self) -> Result<(), StepError> {
+        for i in 0..self.body.len() {
+            for (quantity, v) in [("displacement", &self.state.u[i]), ("velocity", &self.state.v[i]), ("force density", &self.state.force[i])] {
+                if let Some(&value) = v.iter().find(|x| !x.is_finite()) {
+                    return Err(StepError::Unstable {
+                        step: self.state.step,
+                        time: self.state.time,
+                        node: i,
+                        position: self.body.positions[i].iter().cloned().collect(),
+                        quantity,
+                        value,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Kinetic energy (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        self.state.kinetic_energy(&self.body, self.engine.material.density())
+    }
+
+    /// Strain energy (J).
+    pub fn strain_energy(&self) -> f64 {
+        self.engine.strain_energy(&self.body, &self.bonds, &self.state)
+    }
+
+    /// External force (N) that holds a node set: −Σ_i V_i f_int,i over the set.
+    pub fn reaction(&self, nodes: &[u32]) -> Vector<D> {
+        -nodes.iter().map(|&i| self.state.force[i as usize] * self.body.volumes[i as usize]).fold(Vector::zeros(), |a, b| a + b)
+    }
+}
