@@ -93,7 +93,7 @@ impl Lps {
 
     /// Scalar force state t⟨ξ⟩ of a node with weighted volume m and dilatation θ.
     #[inline(always)]
-    fn force_state(&self, m: f64, theta: f64, b: &BondGeom) -> f64 {
+    fn scalar_state(&self, m: f64, theta: f64, b: &BondGeom) -> f64 {
         let w = self.omega(b.ref_len);
         let e = b.len - b.ref_len;
         (self.a_vol * theta * w * b.ref_len + self.b_dev * w * (e - self.c_iso * theta * b.ref_len)) / m
@@ -130,11 +130,10 @@ impl<const D: usize> Material<D> for Lps {
         LpsPoint { theta: if m > 0.0 { self.theta_factor * acc.theta / m } else { 0.0 } }
     }
 
-    /// Dual force density (T_i⟨ξ⟩ − T_j⟨−ξ⟩), seed 002 Eq. (1), with each state weighted by its
-    /// own partial-volume factor.
+    /// Seed 002, Eqs. (4)–(5); the engine pairs it with t_j⟨−ξ⟩ as in Eq. (1).
     #[inline(always)]
-    fn pair_force(&self, i: usize, j: usize, b: &BondGeom, pi: &LpsPoint, pj: &LpsPoint) -> f64 {
-        self.force_state(self.m[i], pi.theta, b) * b.phi_ij + self.force_state(self.m[j], pj.theta, b) * b.phi_ji
+    fn force_state(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
+        self.scalar_state(self.m[i], p.theta, b)
     }
 
     #[inline(always)]

@@ -68,8 +68,17 @@ pub trait Material<const D: usize>: Sync + Send {
         acc
     }
 
-    /// Scalar pair force density of bond i→j (see the trait docs for the convention).
-    fn pair_force(&self, i: usize, j: usize, bond: &BondGeom, pi: &Self::Point, pj: &Self::Point) -> f64;
+    /// Scalar force state t_i⟨ξ⟩ of node i on bond i→j (N/m⁶): the force state is
+    /// T = t M, M the deformed bond direction. Bond-based models give half the pair force.
+    fn force_state(&self, i: usize, bond: &BondGeom, pi: &Self::Point) -> f64;
+
+    /// Scalar pair force density of bond i→j (see the trait docs for the convention):
+    /// t_i⟨ξ⟩ φ_ij + t_j⟨−ξ⟩ φ_ji, the discrete form of T[x]⟨ξ⟩ − T[x']⟨−ξ⟩.
+    #[inline(always)]
+    fn pair_force(&self, i: usize, j: usize, bond: &BondGeom, pi: &Self::Point, pj: &Self::Point) -> f64 {
+        let _ = (i, j);
+        self.force_state(i, bond, pi) * bond.phi_ij + self.force_state(j, bond, pj) * bond.phi_ji
+    }
 
     /// Energy contribution of an intact bond of node i (before the point-level finish).
     fn bond_energy(&self, i: usize, bond: &BondGeom, pi: &Self::Point) -> f64;

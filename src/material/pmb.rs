@@ -112,6 +112,12 @@ impl<const D: usize> Material<D> for Pmb {
         self.c(b.ref_len) * b.stretch() * 0.5 * (b.phi_ij + b.phi_ji)
     }
 
+    /// Half the pair force goes to each end's force state.
+    #[inline(always)]
+    fn force_state(&self, _i: usize, b: &BondGeom, _: &()) -> f64 {
+        0.5 * self.c(b.ref_len) * b.stretch()
+    }
+
     /// Half of the bond micropotential ω = ½ c s² |ξ| (seed 001, Eq. 3) goes to each end.
     #[inline(always)]
     fn bond_energy(&self, _i: usize, b: &BondGeom, _: &()) -> f64 {

@@ -169,6 +169,29 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .collect()
     }
 
+    /// Peridynamic stress of node i, σ_i = Σ_j t_i⟨ξ⟩ (M ⊗ ξ) φ_ij V_j (Silling et al. 2007:
+    /// the stress of a homogeneous deformation is ∫ T⟨ξ⟩ ⊗ ξ dV). Row a, column b: M_a ξ_b.
+    pub fn stress(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>, i: usize) -> [[f64; D]; D] {
+        let mut sigma = [[0.0; D]; D];
+        let pi = &self.points[i];
+        for b in bonds.family(i) {
+            if state.status[b] != INTACT {
+                continue;
+            }
+            let j = bonds.neighbors[b] as usize;
+            let y = state.current[j] - state.current[i];
+            let xi = body.positions[j] - body.positions[i];
+            let g = self.geom(i, j, bonds.ref_lengths[b], y.norm());
+            let t = self.material.force_state(i, &g, pi) * g.weight();
+            for a in 0..D {
+                for c in 0..D {
+                    sigma[a][c] += t * y[a] / g.len * xi[c];
+                }
+            }
+        }
+        sigma
+    }
+
     /// Total strain energy Σ W_i V_i (J).
     pub fn strain_energy(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>) -> f64 {
         self.energy_density(body, bonds, state).iter().zip(&body.volumes).map(|(w, v)| w * v).sum()

@@ -1,0 +1,45 @@
+//! Builders shared by the verification tests.
+#![allow(dead_code)]
+
+use peridyn::body::Body;
+use peridyn::bonds::{search::build_bonds, Bonds, PartialVolume};
+use peridyn::discretize::lattice::lattice;
+use peridyn::geometry::Shape;
+use peridyn::material::lps::Influence;
+use peridyn::material::{Dimensionality, Elasticity, Lps, MicromodulusProfile, Pmb};
+
+pub const THICKNESS: f64 = 1e-3;
+
+/// A square (2D) or cube (3D) lattice of `n` cells per side, spacing `dx`, horizon ratio `m`.
+pub fn lattice_body<const D: usize>(n: usize, dx: f64, m: f64, rule: PartialVolume) -> (Body<D>, Bonds) {
+    let side = n as f64 * dx;
+    let shape = if D == 3 { Shape::Box { min: [0.0; 3], max: [side; 3] } } else { Shape::Rectangle { min: [0.0; 2], max: [side; 2] } };
+    let cloud = lattice(&shape, D, dx, THICKNESS).unwrap();
+    let body = Body::<D>::from_cloud(cloud, m * dx, THICKNESS);
+    let bonds = build_bonds(&body, rule, &[]);
+    (body, bonds)
+}
+
+/// The node closest to the centre of the body.
+pub fn centre_node<const D: usize>(body: &Body<D>) -> usize {
+    let mut c = peridyn::math::Vector::<D>::zeros();
+    for p in &body.positions {
+        c += p;
+    }
+    c /= body.len() as f64;
+    (0..body.len()).min_by(|&a, &b| (body.positions[a] - c).norm().partial_cmp(&(body.positions[b] - c).norm()).unwrap()).unwrap()
+}
+
+pub fn pmb(dim: Dimensionality, e: f64, horizon: f64, profile: MicromodulusProfile, s0: f64) -> Pmb {
+    let c = Pmb::micromodulus(e, dim, profile, horizon);
+    Pmb::new(c, s0, 2000.0, dim, profile, horizon, THICKNESS)
+}
+
+pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64, s0: f64) -> Lps {
+    Lps::new(Elasticity { youngs_modulus: e, poisson_ratio: nu, dimensionality: dim }, Influence::Constant, horizon, s0, 2000.0, THICKNESS)
+}
+
+/// Strain tensor padded to 3×3 from a D×D array.
+pub fn strain3(e: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    *e
+}
