@@ -1,0 +1,105 @@
+//! Conformance suite run over every model: zero force in the reference state, momentum
+//! balance, rigid-motion invariance, and forces equal to minus the energy gradient.
+//! Adding a model means adding a line to `for_every_model!`.
+
+mod common;
+
+use common::*;
+use peridyn::bonds::PartialVolume;
+use peridyn::loading::Loading;
+use peridyn::material::{Dimensionality, Material, MicromodulusProfile};
+use peridyn::math::Vector;
+use peridyn::solver::Simulation;
+
+/// A deterministic pseudo-random number in [-1, 1) (no RNG dependency; fixed sequence).
+fn noise(k: usize) -> f64 {
+    let x = (k as u64).wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+}
+
+fn sim_of<const D: usize, M: Material<D>>(material: M) -> Simulation<D, M> {
+    let (body, bonds) = lattice_body::<D>(if D == 2 { 12 } else { 7 }, 1e-3, 3.0, PartialVolume::Hhb);
+    Simulation::new(body, bonds, material, PartialVolume::Hhb, Loading::default(), None, 0.8)
+}
+
+fn displace<const D: usize, M: Material<D>>(sim: &mut Simulation<D, M>, f: impl Fn(usize, &Vector<D>) -> Vector<D>) {
+    let body = sim.body.clone();
+    for i in 0..body.len() {
+        sim.state.set_displacement(&body, i, f(i, &body.positions[i]));
+    }
+    sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
+}
+
+fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
+    sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
+}
+
+fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) {
+    // Reference state: exactly zero force.
+    let mut sim = sim_of::<D, M>(material.clone());
+    assert_eq!(max_force(&sim), 0.0, "{name}: force in the reference state");
+
+    // Random small deformation: momentum balance Σ V f = 0 to round-off.
+    let amp = 1e-6;
+    displace(&mut sim, |i, _| Vector::<D>::from_fn(|k, _| amp * noise(D * i + k)));
+    let scale = max_force(&sim);
+    assert!(scale > 0.0);
+    let total: Vector<D> = (0..sim.body.len()).map(|i| sim.state.force[i] * sim.body.volumes[i]).fold(Vector::zeros(), |a, b| a + b);
+    let per_node = scale * sim.body.volumes[0];
+    assert!(total.norm() < 1e-10 * per_node * sim.body.len() as f64, "{name}: net internal force {total:?} (scale {per_node})");
+
+    // Energy–force consistency: V_i f_i = −∂E/∂u_i by central differences.
+    for (i, k) in [(sim.body.len() / 2, 0), (3, D - 1), (sim.body.len() - 5, 1)] {
+        let fd = {
+            let h = 1e-9;
+            let base = sim.state.u.clone();
+            let energy_at = |sim: &mut Simulation<D, M>, du: f64| {
+                let body = sim.body.clone();
+                let mut u = base[i];
+                u[k] += du;
+                sim.state.set_displacement(&body, i, u);
+                sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
+                sim.strain_energy()
+            };
+            let ep = energy_at(&mut sim, h);
+            let em = energy_at(&mut sim, -h);
+            let body = sim.body.clone();
+            sim.state.set_displacement(&body, i, base[i]);
+            sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
+            -(ep - em) / (2.0 * h)
+        };
+        let f = sim.state.force[i][k] * sim.body.volumes[i];
+        assert!((fd - f).abs() < 1e-4 * per_node.max(f.abs()), "{name}: node {i} comp {k}: −dE/du = {fd}, V f = {f}");
+    }
+
+    // Rigid motion: a finite rotation plus translation gives no force (beyond round-off).
+    let angle: f64 = 0.3;
+    displace(&mut sim, |_, x| {
+        let mut y = *x;
+        let (c, s) = (angle.cos(), angle.sin());
+        y[0] = c * x[0] - s * x[1] + 0.01;
+        y[1] = s * x[0] + c * x[1] - 0.02;
+        y - x
+    });
+    let rigid = max_force(&sim);
+    assert!(rigid < 1e-6 * scale, "{name}: force under rigid motion {rigid} vs {scale} under strain {amp}");
+    println!("{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e})");
+}
+
+macro_rules! for_every_model {
+    ($($name:literal => $d:literal, $material:expr;)*) => {
+        #[test]
+        fn every_model_conforms() {
+            $( check_model::<$d, _>($name, $material); )*
+        }
+    };
+}
+
+for_every_model! {
+    "pmb plane stress" => 2, pmb(Dimensionality::PlaneStress, 70e9, 3e-3, MicromodulusProfile::Constant, f64::INFINITY);
+    "pmb plane strain conical" => 2, pmb(Dimensionality::PlaneStrain, 70e9, 3e-3, MicromodulusProfile::Conical, f64::INFINITY);
+    "pmb 3D" => 3, pmb(Dimensionality::ThreeD, 70e9, 3e-3, MicromodulusProfile::Constant, f64::INFINITY);
+    "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, f64::INFINITY);
+    "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3, f64::INFINITY);
+    "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3, f64::INFINITY);
+}
