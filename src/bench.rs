@@ -29,17 +29,45 @@ fn block<const D: usize>(target_bonds: usize) -> (Body<D>, Bonds, f64) {
     let per_node = if D == 3 { 122.0 } else { 28.0 };
     let nodes = (target_bonds as f64 / per_node).max(1000.0);
     let side = nodes.powf(1.0 / D as f64).ceil() * dx;
-    let shape = if D == 3 { Shape::Box { min: [0.0; 3], max: [side; 3] } } else { Shape::Rectangle { min: [0.0; 2], max: [side; 2] } };
+    let shape = if D == 3 {
+        Shape::Box {
+            min: [0.0; 3],
+            max: [side; 3],
+        }
+    } else {
+        Shape::Rectangle {
+            min: [0.0; 2],
+            max: [side; 2],
+        }
+    };
     let cloud = lattice(&shape, D, dx, 1e-3).expect("benchmark lattice");
     let body = Body::<D>::from_cloud(cloud, 3.0 * dx, 1e-3);
     let bonds = build_bonds(&body, PartialVolume::Hhb, &[]);
     (body, bonds, 3.0 * dx)
 }
 
-fn measure<const D: usize, M: Material<D>>(case: &str, body: Body<D>, bonds: Bonds, material: M, steps: u64, threads: usize) -> BenchResult {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+fn measure<const D: usize, M: Material<D>>(
+    case: &str,
+    body: Body<D>,
+    bonds: Bonds,
+    material: M,
+    steps: u64,
+    threads: usize,
+) -> BenchResult {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
     pool.install(|| {
-        let mut sim = Simulation::new(body, bonds, material, PartialVolume::Hhb, Loading::default(), None, 0.8);
+        let mut sim = Simulation::new(
+            body,
+            bonds,
+            material,
+            PartialVolume::Hhb,
+            Loading::default(),
+            None,
+            0.8,
+        );
         // A small random-free initial velocity field so the loop does real work.
         for (i, v) in sim.state.v.iter_mut().enumerate() {
             v[0] = 1e-3 * ((i % 7) as f64 - 3.0);
@@ -67,25 +95,64 @@ fn measure<const D: usize, M: Material<D>>(case: &str, body: Body<D>, bonds: Bon
 
 fn pmb<const D: usize>(dim: Dimensionality, horizon: f64) -> Pmb {
     let c = Pmb::micromodulus(70e9, dim, MicromodulusProfile::Constant, horizon);
-    Pmb::new(c, f64::INFINITY, 2500.0, dim, MicromodulusProfile::Constant, horizon, 1e-3)
+    Pmb::new(
+        c,
+        f64::INFINITY,
+        2500.0,
+        dim,
+        MicromodulusProfile::Constant,
+        horizon,
+        1e-3,
+    )
 }
 
 fn lps(dim: Dimensionality, horizon: f64) -> Lps {
-    Lps::new(Elasticity { youngs_modulus: 70e9, poisson_ratio: 0.3, dimensionality: dim }, Influence::Constant, horizon, f64::INFINITY, 2500.0, 1e-3)
+    Lps::new(
+        Elasticity {
+            youngs_modulus: 70e9,
+            poisson_ratio: 0.3,
+            dimensionality: dim,
+        },
+        Influence::Constant,
+        horizon,
+        f64::INFINITY,
+        2500.0,
+        1e-3,
+    )
 }
 
 /// Runs every case and prints a table; returns the results.
 pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec<BenchResult> {
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let threads: Vec<usize> = if threads.is_empty() { if cores > 1 { vec![1, cores] } else { vec![1] } } else { threads.to_vec() };
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let threads: Vec<usize> = if threads.is_empty() {
+        if cores > 1 {
+            vec![1, cores]
+        } else {
+            vec![1]
+        }
+    } else {
+        threads.to_vec()
+    };
     let mut results = Vec::new();
-    println!("{:<10} {:>7} {:>9} {:>10} {:>16} {:>18} {:>14}", "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond");
+    println!(
+        "{:<10} {:>7} {:>9} {:>10} {:>16} {:>18} {:>14}",
+        "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond"
+    );
     for &t in &threads {
         for case in ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d"] {
             let r = match case {
                 "pmb-2d" => {
                     let (b, bo, h) = block::<2>(target_bonds);
-                    measure(case, b, bo, pmb::<2>(Dimensionality::PlaneStress, h), steps, t)
+                    measure(
+                        case,
+                        b,
+                        bo,
+                        pmb::<2>(Dimensionality::PlaneStress, h),
+                        steps,
+                        t,
+                    )
                 }
                 "lps-2d" => {
                     let (b, bo, h) = block::<2>(target_bonds);
@@ -102,7 +169,13 @@ pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec
             };
             println!(
                 "{:<10} {:>7} {:>9} {:>10.1} {:>16.3e} {:>18.3e} {:>14.0}",
-                r.case, r.threads, r.nodes, r.bonds_per_node, r.node_steps_per_second, r.bond_evaluations_per_second, r.bytes_per_bond
+                r.case,
+                r.threads,
+                r.nodes,
+                r.bonds_per_node,
+                r.node_steps_per_second,
+                r.bond_evaluations_per_second,
+                r.bytes_per_bond
             );
             results.push(r);
         }

@@ -30,12 +30,19 @@ pub struct Body<const D: usize> {
 impl<const D: usize> Body<D> {
     /// Builds a body from a node cloud, reordering the nodes along a Morton curve.
     pub fn from_cloud(cloud: NodeCloud, horizon: f64, thickness: f64) -> Self {
-        let typical = cloud.cell_sizes.iter().cloned().fold(f64::INFINITY, f64::min);
+        let typical = cloud
+            .cell_sizes
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min);
         let perm = morton_order(&cloud.positions, D, typical.max(f64::MIN_POSITIVE));
         let pick = |i: &u32| *i as usize;
         let n = perm.len();
         Body {
-            positions: perm.iter().map(|i| vector_from_slice::<D>(&cloud.positions[pick(i)])).collect(),
+            positions: perm
+                .iter()
+                .map(|i| vector_from_slice::<D>(&cloud.positions[pick(i)]))
+                .collect(),
             volumes: perm.iter().map(|i| cloud.volumes[pick(i)]).collect(),
             cell_sizes: perm.iter().map(|i| cloud.cell_sizes[pick(i)]).collect(),
             horizons: vec![horizon; n],
@@ -101,7 +108,10 @@ impl<const D: usize> Body<D> {
 
     /// Smallest cell size, the "dx" of the discretization.
     pub fn min_cell_size(&self) -> f64 {
-        self.cell_sizes.iter().cloned().fold(f64::INFINITY, f64::min)
+        self.cell_sizes
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Largest horizon.

@@ -4,18 +4,18 @@
 //! its `Bonds` (`bonds`), a material (`material`) and `Loading`; a `solver::Simulation`
 //! advances the `State`, and observers (`observe`, `plot`) write fields, histories and pictures.
 
+pub mod bench;
 pub mod body;
 pub mod bonds;
 pub mod counters;
+pub mod deck;
 pub mod discretize;
 pub mod geometry;
 pub mod loading;
 pub mod material;
 pub mod math;
-pub mod solver;
-pub mod state;
-pub mod deck;
 pub mod observe;
 pub mod plot;
 pub mod run;
-pub mod bench;
+pub mod solver;
+pub mod state;

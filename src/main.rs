@@ -7,7 +7,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "peridyn", version, about = "Peridynamic fracture simulation in 2D and 3D")]
+#[command(
+    name = "peridyn",
+    version,
+    about = "Peridynamic fracture simulation in 2D and 3D"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -51,11 +55,27 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: Result<(), String> = match cli.command {
-        Command::Run { deck, output, threads, quiet } => (|| {
+        Command::Run {
+            deck,
+            output,
+            threads,
+            quiet,
+        } => (|| {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
-            let name = deck.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "run".into());
+            let name = deck
+                .file_stem()
+                .map(|s| s.to_string_lossy().to_string())
+                .unwrap_or_else(|| "run".into());
             let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(name));
-            let summary = run(&ld, &RunOptions { out_dir, threads, quiet }).map_err(|e| e.to_string())?;
+            let summary = run(
+                &ld,
+                &RunOptions {
+                    out_dir,
+                    threads,
+                    quiet,
+                },
+            )
+            .map_err(|e| e.to_string())?;
             println!("{summary}");
             Ok(())
         })(),
@@ -65,7 +85,11 @@ fn main() -> ExitCode {
             println!("{}: deck is valid\n{report}", deck.display());
             Ok(())
         })(),
-        Command::Bench { bonds, steps, threads } => {
+        Command::Bench {
+            bonds,
+            steps,
+            threads,
+        } => {
             peridyn::bench::run_benchmarks(bonds, steps, &threads);
             Ok(())
         }

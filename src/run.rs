@@ -67,16 +67,42 @@ impl std::fmt::Display for ModelReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "model            {} ({}D)", self.model, self.dimension)?;
         writeln!(f, "nodes            {}", self.nodes)?;
-        writeln!(f, "bonds            {} ({:.1} per node, {} B per directed bond)", self.bonds, self.bonds_per_node, self.bytes_per_bond)?;
-        writeln!(f, "horizon δ        {:.4e} m, δ/Δx = {:.3} (Δx = {:.4e} m)", self.horizon, self.horizon_over_spacing, self.spacing)?;
-        writeln!(f, "elasticity       E = {:.4e} Pa, ν = {:.4}, P-wave speed {:.1} m/s", self.youngs_modulus, self.poisson_ratio, self.p_wave_speed)?;
+        writeln!(
+            f,
+            "bonds            {} ({:.1} per node, {} B per directed bond)",
+            self.bonds, self.bonds_per_node, self.bytes_per_bond
+        )?;
+        writeln!(
+            f,
+            "horizon δ        {:.4e} m, δ/Δx = {:.3} (Δx = {:.4e} m)",
+            self.horizon, self.horizon_over_spacing, self.spacing
+        )?;
+        writeln!(
+            f,
+            "elasticity       E = {:.4e} Pa, ν = {:.4}, P-wave speed {:.1} m/s",
+            self.youngs_modulus, self.poisson_ratio, self.p_wave_speed
+        )?;
         if self.micromodulus > 0.0 {
             writeln!(f, "micromodulus c0  {:.4e}", self.micromodulus)?;
         }
         writeln!(f, "critical stretch s0 = {:.5e}", self.critical_stretch)?;
-        writeln!(f, "time step        dt = {:.4e} s (stable estimate {:.4e} s, ratio {:.3})", self.dt, self.dt_stable, self.dt / self.dt_stable)?;
-        writeln!(f, "run              {} steps, t_end = {:.4e} s", self.steps, self.end_time)?;
-        write!(f, "memory estimate  {:.1} MB", self.memory_bytes as f64 / 1e6)
+        writeln!(
+            f,
+            "time step        dt = {:.4e} s (stable estimate {:.4e} s, ratio {:.3})",
+            self.dt,
+            self.dt_stable,
+            self.dt / self.dt_stable
+        )?;
+        writeln!(
+            f,
+            "run              {} steps, t_end = {:.4e} s",
+            self.steps, self.end_time
+        )?;
+        write!(
+            f,
+            "memory estimate  {:.1} MB",
+            self.memory_bytes as f64 / 1e6
+        )
     }
 }
 
@@ -97,19 +123,33 @@ pub struct RunSummary {
 impl std::fmt::Display for RunSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "{}", self.report)?;
-        writeln!(f, "finished         {} steps in {:.2} s wall, {:.3e} node-steps/s", self.report.steps, self.wall_seconds, self.node_steps_per_second)?;
+        writeln!(
+            f,
+            "finished         {} steps in {:.2} s wall, {:.3e} node-steps/s",
+            self.report.steps, self.wall_seconds, self.node_steps_per_second
+        )?;
         writeln!(f, "broken bonds     {}", self.broken_bonds)?;
-        writeln!(f, "energies         kinetic {:.5e} J, strain {:.5e} J, external work {:.5e} J", self.kinetic_energy, self.strain_energy, self.external_work)?;
+        writeln!(
+            f,
+            "energies         kinetic {:.5e} J, strain {:.5e} J, external work {:.5e} J",
+            self.kinetic_energy, self.strain_energy, self.external_work
+        )?;
         writeln!(f, "timers           {}", self.timers)?;
         write!(f, "results in       {}", self.out_dir.display())
     }
 }
 
-fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T, RunError> {
+fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> Result<T, RunError> {
     match threads {
         None => Ok(f()),
         Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| RunError::Threads(e.to_string()))?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| RunError::Threads(e.to_string()))?;
             Ok(pool.install(f))
         }
     }
@@ -148,15 +188,36 @@ fn run_dim<const D: usize>(ld: &LoadedDeck, opts: &RunOptions) -> Result<RunSumm
 }
 
 /// Builds the simulation, checks the time step and reports the model.
-pub fn prepare<const D: usize, M: Material<D>>(ld: &LoadedDeck, model: Model<D>, material: M) -> Result<(Simulation<D, M>, ModelReport), RunError> {
+pub fn prepare<const D: usize, M: Material<D>>(
+    ld: &LoadedDeck,
+    model: Model<D>,
+    material: M,
+) -> Result<(Simulation<D, M>, ModelReport), RunError> {
     let settings = explicit_settings(&ld.deck);
     let started = Instant::now();
-    let Model { body, bonds, loading, rule, horizon, spacing, initial_velocities, .. } = model;
-    let mut sim = Simulation::new(body, bonds, material, rule, loading, settings.dt, settings.safety_factor);
+    let Model {
+        body,
+        bonds,
+        loading,
+        rule,
+        horizon,
+        spacing,
+        initial_velocities,
+        ..
+    } = model;
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        rule,
+        loading,
+        settings.dt,
+        settings.safety_factor,
+    );
     if let Some(dt) = settings.dt {
         if dt > sim.dt_stable {
             return Err(ld
-                .locate(vec![DeckIssue::new("solver.dt", format!("dt = {dt:e} s exceeds the stable time step {:e} s (Silling–Askari estimate); lower dt or remove it to use safety_factor × the estimate", sim.dt_stable))])
+                .locate(vec![DeckIssue::new("solver.dt", format!("dt = {dt:.4e} s exceeds the stable time step {:.4e} s (Silling–Askari estimate); lower dt or remove it to use safety_factor × the estimate", sim.dt_stable))])
                 .into());
         }
     }
@@ -164,10 +225,17 @@ pub fn prepare<const D: usize, M: Material<D>>(ld: &LoadedDeck, model: Model<D>,
         set_initial_velocity(&mut sim.state, nodes, vector_from_slice::<D>(v));
     }
     sim.counters.setup = started.elapsed();
-    let steps = settings.steps.unwrap_or_else(|| (settings.end_time.unwrap_or(0.0) / sim.dt).ceil() as u64);
+    let steps = settings
+        .steps
+        .unwrap_or_else(|| (settings.end_time.unwrap_or(0.0) / sim.dt).ceil() as u64);
     let el: Elasticity = sim.engine.material.elasticity();
     let micromodulus = match ld.deck.material {
-        crate::deck::schema::MaterialDeck::Pmb { .. } => crate::material::Pmb::micromodulus(el.youngs_modulus, el.dimensionality, profile_of(&ld.deck), horizon),
+        crate::deck::schema::MaterialDeck::Pmb { .. } => crate::material::Pmb::micromodulus(
+            el.youngs_modulus,
+            el.dimensionality,
+            profile_of(&ld.deck),
+            horizon,
+        ),
         _ => 0.0,
     };
     let nodes = sim.body.len();
@@ -206,20 +274,55 @@ fn profile_of(deck: &crate::deck::Deck) -> crate::material::MicromodulusProfile 
     }
 }
 
-fn run_model<const D: usize, M: Material<D>>(ld: &LoadedDeck, model: Model<D>, material: M, opts: &RunOptions) -> Result<RunSummary, RunError> {
+fn run_model<const D: usize, M: Material<D>>(
+    ld: &LoadedDeck,
+    model: Model<D>,
+    material: M,
+    opts: &RunOptions,
+) -> Result<RunSummary, RunError> {
     let (mut sim, report) = prepare(ld, model, material)?;
     let out = &opts.out_dir;
-    std::fs::create_dir_all(out).map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out)
+        .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
     write_resolved(ld, &report, out)?;
 
     let deck = &ld.deck;
-    let sets: Vec<(String, Vec<u32>)> = sim.body.node_sets.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
-    let snapshot_every = if deck.output.snapshots == 0 { u64::MAX } else { report.steps.div_ceil(deck.output.snapshots).max(1) };
-    let history_every = if deck.output.history_interval == 0 { u64::MAX } else { deck.output.history_interval };
-    let title = if deck.title.is_empty() { ld.file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default() } else { deck.title.clone() };
+    let sets: Vec<(String, Vec<u32>)> = sim
+        .body
+        .node_sets
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    let snapshot_every = if deck.output.snapshots == 0 {
+        u64::MAX
+    } else {
+        report.steps.div_ceil(deck.output.snapshots).max(1)
+    };
+    let history_every = if deck.output.history_interval == 0 {
+        u64::MAX
+    } else {
+        deck.output.history_interval
+    };
+    let title = if deck.title.is_empty() {
+        ld.file
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default()
+    } else {
+        deck.title.clone()
+    };
     let mut observers: Vec<Box<dyn Observer<D, M>>> = vec![
-        Box::new(History::new::<D>(&out.join("history.csv"), history_every, &sets)),
-        Box::new(Snapshots::new(out.clone(), snapshot_every, deck.output.png, &title)?),
+        Box::new(History::new::<D>(
+            &out.join("history.csv"),
+            history_every,
+            &sets,
+        )),
+        Box::new(Snapshots::new(
+            out.clone(),
+            snapshot_every,
+            deck.output.png,
+            &title,
+        )?),
         Box::new(Progress::new(report.steps, opts.quiet)),
     ];
 
@@ -248,12 +351,19 @@ fn run_model<const D: usize, M: Material<D>>(ld: &LoadedDeck, model: Model<D>, m
         out_dir: out.clone(),
         report,
     };
-    crate::observe::atomic::write_atomic(&out.join("summary.txt"), format!("{summary}\n").as_bytes())?;
+    crate::observe::atomic::write_atomic(
+        &out.join("summary.txt"),
+        format!("{summary}\n").as_bytes(),
+    )?;
     Ok(summary)
 }
 
 /// The step loop: step, check for blow-up, offer the committed step to observers.
-pub fn drive<const D: usize, M: Material<D>>(sim: &mut Simulation<D, M>, steps: u64, observers: &mut [Box<dyn Observer<D, M>>]) -> Result<(), RunError> {
+pub fn drive<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    steps: u64,
+    observers: &mut [Box<dyn Observer<D, M>>],
+) -> Result<(), RunError> {
     offer(sim, observers, steps == 0)?;
     for k in 1..=steps {
         sim.step()?;
@@ -265,7 +375,11 @@ pub fn drive<const D: usize, M: Material<D>>(sim: &mut Simulation<D, M>, steps: 
     Ok(())
 }
 
-fn offer<const D: usize, M: Material<D>>(sim: &mut Simulation<D, M>, observers: &mut [Box<dyn Observer<D, M>>], last: bool) -> Result<(), RunError> {
+fn offer<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    observers: &mut [Box<dyn Observer<D, M>>],
+    last: bool,
+) -> Result<(), RunError> {
     let step = sim.state.step;
     if !observers.iter().any(|o| o.wants(step, last)) {
         return Ok(());
@@ -284,13 +398,18 @@ fn offer<const D: usize, M: Material<D>>(sim: &mut Simulation<D, M>, observers: 
 }
 
 /// Writes `resolved.toml`: the deck with every default filled in, and the derived constants.
-fn write_resolved(ld: &LoadedDeck, report: &ModelReport, out: &std::path::Path) -> Result<(), RunError> {
+fn write_resolved(
+    ld: &LoadedDeck,
+    report: &ModelReport,
+    out: &std::path::Path,
+) -> Result<(), RunError> {
     let deck = toml::to_string(&ld.deck).map_err(|e| std::io::Error::other(e.to_string()))?;
     #[derive(Serialize)]
     struct Derived<'a> {
         derived: &'a ModelReport,
     }
-    let derived = toml::to_string(&Derived { derived: report }).map_err(|e| std::io::Error::other(e.to_string()))?;
+    let derived = toml::to_string(&Derived { derived: report })
+        .map_err(|e| std::io::Error::other(e.to_string()))?;
     let text = format!("# Resolved deck written by peridyn {} from {}\n# Every default is filled in; [derived] holds the constants computed from it.\n\n{deck}\n{derived}", env!("CARGO_PKG_VERSION"), ld.file.display());
     crate::observe::atomic::write_atomic(&out.join("resolved.toml"), text.as_bytes())?;
     Ok(())

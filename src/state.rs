@@ -61,6 +61,10 @@ impl<const D: usize> State<D> {
 
     /// Kinetic energy Σ ½ ρ V |v|² (J).
     pub fn kinetic_energy(&self, body: &Body<D>, rho: f64) -> f64 {
-        self.v.iter().zip(&body.volumes).map(|(v, &vol)| 0.5 * rho * vol * v.norm_squared()).sum()
+        self.v
+            .iter()
+            .zip(&body.volumes)
+            .map(|(v, &vol)| 0.5 * rho * vol * v.norm_squared())
+            .sum()
     }
 }

@@ -13,19 +13,34 @@ use peridyn::solver::Simulation;
 
 /// A deterministic pseudo-random number in [-1, 1) (no RNG dependency; fixed sequence).
 fn noise(k: usize) -> f64 {
-    let x = (k as u64).wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let x = (k as u64)
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
 }
 
 fn sim_of<const D: usize, M: Material<D>>(material: M) -> Simulation<D, M> {
-    let (body, bonds) = lattice_body::<D>(if D == 2 { 12 } else { 7 }, 1e-3, 3.0, PartialVolume::Hhb);
-    Simulation::new(body, bonds, material, PartialVolume::Hhb, Loading::default(), None, 0.8)
+    let (body, bonds) =
+        lattice_body::<D>(if D == 2 { 12 } else { 7 }, 1e-3, 3.0, PartialVolume::Hhb);
+    Simulation::new(
+        body,
+        bonds,
+        material,
+        PartialVolume::Hhb,
+        Loading::default(),
+        None,
+        0.8,
+    )
 }
 
-fn displace<const D: usize, M: Material<D>>(sim: &mut Simulation<D, M>, f: impl Fn(usize, &Vector<D>) -> Vector<D>) {
+fn displace<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    f: impl Fn(usize, &Vector<D>) -> Vector<D>,
+) {
     let body = sim.body.clone();
     for i in 0..body.len() {
-        sim.state.set_displacement(&body, i, f(i, &body.positions[i]));
+        sim.state
+            .set_displacement(&body, i, f(i, &body.positions[i]));
     }
     sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
 }
@@ -41,12 +56,19 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
 
     // Random small deformation: momentum balance Σ V f = 0 to round-off.
     let amp = 1e-6;
-    displace(&mut sim, |i, _| Vector::<D>::from_fn(|k, _| amp * noise(D * i + k)));
+    displace(&mut sim, |i, _| {
+        Vector::<D>::from_fn(|k, _| amp * noise(D * i + k))
+    });
     let scale = max_force(&sim);
     assert!(scale > 0.0);
-    let total: Vector<D> = (0..sim.body.len()).map(|i| sim.state.force[i] * sim.body.volumes[i]).fold(Vector::zeros(), |a, b| a + b);
+    let total: Vector<D> = (0..sim.body.len())
+        .map(|i| sim.state.force[i] * sim.body.volumes[i])
+        .fold(Vector::zeros(), |a, b| a + b);
     let per_node = scale * sim.body.volumes[0];
-    assert!(total.norm() < 1e-10 * per_node * sim.body.len() as f64, "{name}: net internal force {total:?} (scale {per_node})");
+    assert!(
+        total.norm() < 1e-10 * per_node * sim.body.len() as f64,
+        "{name}: net internal force {total:?} (scale {per_node})"
+    );
 
     // Energy–force consistency: V_i f_i = −∂E/∂u_i by central differences.
     for (i, k) in [(sim.body.len() / 2, 0), (3, D - 1), (sim.body.len() - 5, 1)] {
@@ -69,7 +91,10 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
             -(ep - em) / (2.0 * h)
         };
         let f = sim.state.force[i][k] * sim.body.volumes[i];
-        assert!((fd - f).abs() < 1e-4 * per_node.max(f.abs()), "{name}: node {i} comp {k}: −dE/du = {fd}, V f = {f}");
+        assert!(
+            (fd - f).abs() < 1e-4 * per_node.max(f.abs()),
+            "{name}: node {i} comp {k}: −dE/du = {fd}, V f = {f}"
+        );
     }
 
     // Rigid motion: a finite rotation plus translation gives no force (beyond round-off).
@@ -82,7 +107,10 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
         y - x
     });
     let rigid = max_force(&sim);
-    assert!(rigid < 1e-6 * scale, "{name}: force under rigid motion {rigid} vs {scale} under strain {amp}");
+    assert!(
+        rigid < 1e-6 * scale,
+        "{name}: force under rigid motion {rigid} vs {scale} under strain {amp}"
+    );
     println!("{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e})");
 }
 

@@ -35,17 +35,40 @@ const E: f64 = 1.0e9;
 const STEPS: usize = 10_000;
 const SAMPLE_EVERY: usize = 20;
 
-fn run<const D: usize, M: Material<D>>(label: &str, n: usize, m_ratio: f64, make: impl FnOnce(f64) -> M) {
+fn run<const D: usize, M: Material<D>>(
+    label: &str,
+    n: usize,
+    m_ratio: f64,
+    make: impl FnOnce(f64) -> M,
+) {
     let started = Instant::now();
     let delta = m_ratio * DX;
     let side = n as f64 * DX;
-    let shape = if D == 2 { Shape::Rectangle { min: [0.0, 0.0], max: [side, side] } } else { Shape::Box { min: [0.0; 3], max: [side; 3] } };
+    let shape = if D == 2 {
+        Shape::Rectangle {
+            min: [0.0, 0.0],
+            max: [side, side],
+        }
+    } else {
+        Shape::Box {
+            min: [0.0; 3],
+            max: [side; 3],
+        }
+    };
     let cloud = lattice(&shape, D, DX, 1.0).unwrap();
     let body = Body::<D>::from_cloud(cloud, delta, 1.0);
     let bonds = build_bonds(&body, PartialVolume::Hhb, &[]);
     let material = make(delta);
     let c_p = (material.elasticity().p_wave_modulus() / material.density()).sqrt();
-    let mut sim = Simulation::new(body, bonds, material, PartialVolume::Hhb, Loading::<D>::default(), None, 0.8);
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        PartialVolume::Hhb,
+        Loading::<D>::default(),
+        None,
+        0.8,
+    );
     assert!((sim.dt / sim.dt_stable - 0.8).abs() < 1e-12);
 
     // Smooth, non-rigid initial field: a displacement with strain ~1e-4 (a bending/shear-like
@@ -61,8 +84,12 @@ fn run<const D: usize, M: Material<D>>(label: &str, n: usize, m_ratio: f64, make
         for k in 0..D {
             let a = s[k];
             let b = s[(k + 1) % D];
-            u[k] = eps * side / PI * ((PI * a).sin() * (PI * b).cos() + 0.3 * (2.0 * PI * b).sin() * (k as f64 + 1.0));
-            v[k] = v0 * ((PI * a).cos() * (2.0 * PI * b).sin() + 0.5 * (PI * b).cos() + 0.2 * (k as f64 + 1.0));
+            u[k] = eps * side / PI
+                * ((PI * a).sin() * (PI * b).cos() + 0.3 * (2.0 * PI * b).sin() * (k as f64 + 1.0));
+            v[k] = v0
+                * ((PI * a).cos() * (2.0 * PI * b).sin()
+                    + 0.5 * (PI * b).cos()
+                    + 0.2 * (k as f64 + 1.0));
         }
         sim.state.set_displacement(&sim.body, i, u);
         sim.state.v[i] = v;
@@ -80,7 +107,13 @@ fn run<const D: usize, M: Material<D>>(label: &str, n: usize, m_ratio: f64, make
         }
         (p, scale)
     };
-    let shadow_term = |sim: &Simulation<D, M>| -> f64 { sim.dt * sim.dt / 8.0 * (0..sim.body.len()).map(|i| sim.body.volumes[i] * sim.state.force[i].norm_squared()).sum::<f64>() / rho };
+    let shadow_term = |sim: &Simulation<D, M>| -> f64 {
+        sim.dt * sim.dt / 8.0
+            * (0..sim.body.len())
+                .map(|i| sim.body.volumes[i] * sim.state.force[i].norm_squared())
+                .sum::<f64>()
+            / rho
+    };
 
     let (p0, pscale) = momentum(&sim);
     let mut energies = Vec::with_capacity(STEPS / SAMPLE_EVERY + 1);
@@ -112,10 +145,18 @@ fn run<const D: usize, M: Material<D>>(label: &str, n: usize, m_ratio: f64, make
     let (first, last) = (mean(&energies[..w]), mean(&energies[ns - w..]));
     let total = mean(&energies);
     let drift = (last - first) / total;
-    let max_dev = energies.iter().map(|e| (e - total).abs()).fold(0.0, f64::max) / total;
+    let max_dev = energies
+        .iter()
+        .map(|e| (e - total).abs())
+        .fold(0.0, f64::max)
+        / total;
     let bound = max_term / total;
     let shadow_mean = mean(&shadows);
-    let shadow_dev = shadows.iter().map(|e| (e - shadow_mean).abs()).fold(0.0, f64::max) / total;
+    let shadow_dev = shadows
+        .iter()
+        .map(|e| (e - shadow_mean).abs())
+        .fold(0.0, f64::max)
+        / total;
     let shadow_drift = (mean(&shadows[ns - w..]) - mean(&shadows[..w])) / total;
     let dp_rel = max_dp / pscale;
     println!(
@@ -131,13 +172,28 @@ fn run<const D: usize, M: Material<D>>(label: &str, n: usize, m_ratio: f64, make
     );
 
     // The body really deforms and exchanges kinetic and strain energy.
-    assert!(ke_max - ke_min > 0.05 * total, "{label}: the initial field should exchange energy");
-    assert!(drift.abs() < 1e-3, "{label}: mean energy drift {drift:e} above 0.1%");
+    assert!(
+        ke_max - ke_min > 0.05 * total,
+        "{label}: the initial field should exchange energy"
+    );
+    assert!(
+        drift.abs() < 1e-3,
+        "{label}: mean energy drift {drift:e} above 0.1%"
+    );
     // E − H̃ ∈ [0, max term], so |E − <E>| ≤ max term + (H̃ variation); allowance 1e-4 for the
     // geometric nonlinearity (strain ~1e-4) and for <E> differing from H̃ by the mean of the term.
-    assert!(max_dev <= bound + 1e-4, "{label}: instantaneous energy deviation {max_dev:e} exceeds the Verlet bound {bound:e}");
-    assert!(shadow_dev < 1e-4, "{label}: shadow energy varies by {shadow_dev:e}");
-    assert!(dp_rel < 1e-12, "{label}: momentum changed by {dp_rel:e} of Σ ρV|v|");
+    assert!(
+        max_dev <= bound + 1e-4,
+        "{label}: instantaneous energy deviation {max_dev:e} exceeds the Verlet bound {bound:e}"
+    );
+    assert!(
+        shadow_dev < 1e-4,
+        "{label}: shadow energy varies by {shadow_dev:e}"
+    );
+    assert!(
+        dp_rel < 1e-12,
+        "{label}: momentum changed by {dp_rel:e} of Σ ρV|v|"
+    );
 }
 
 #[test]
@@ -145,14 +201,33 @@ fn pmb_2d_energy_and_momentum() {
     run::<2, _>("PMB 2D plane stress", 30, 3.0, |delta| {
         let dim = Dimensionality::PlaneStress;
         let c0 = Pmb::micromodulus(E, dim, MicromodulusProfile::Constant, delta);
-        Pmb::new(c0, f64::INFINITY, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
+        Pmb::new(
+            c0,
+            f64::INFINITY,
+            RHO,
+            dim,
+            MicromodulusProfile::Constant,
+            delta,
+            1.0,
+        )
     });
 }
 
 #[test]
 fn lps_2d_energy_and_momentum() {
     run::<2, _>("LPS 2D plane stress", 30, 3.0, |delta| {
-        Lps::new(Elasticity { youngs_modulus: E, poisson_ratio: 0.3, dimensionality: Dimensionality::PlaneStress }, Influence::Constant, delta, f64::INFINITY, RHO, 1.0)
+        Lps::new(
+            Elasticity {
+                youngs_modulus: E,
+                poisson_ratio: 0.3,
+                dimensionality: Dimensionality::PlaneStress,
+            },
+            Influence::Constant,
+            delta,
+            f64::INFINITY,
+            RHO,
+            1.0,
+        )
     });
 }
 
@@ -161,6 +236,14 @@ fn pmb_3d_energy_and_momentum() {
     run::<3, _>("PMB 3D", 10, 3.0, |delta| {
         let dim = Dimensionality::ThreeD;
         let c0 = Pmb::micromodulus(E, dim, MicromodulusProfile::Constant, delta);
-        Pmb::new(c0, f64::INFINITY, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
+        Pmb::new(
+            c0,
+            f64::INFINITY,
+            RHO,
+            dim,
+            MicromodulusProfile::Constant,
+            delta,
+            1.0,
+        )
     });
 }

@@ -12,7 +12,11 @@ use peridyn::solver::Simulation;
 
 /// Energy per unit area to break every bond crossing the plane x_{D−1} = mid, counted for bonds
 /// whose midpoint lies in the central window (away from the lateral surfaces).
-fn separation_energy<const D: usize>(dim: Dimensionality, m: f64, profile: MicromodulusProfile) -> f64 {
+fn separation_energy<const D: usize>(
+    dim: Dimensionality,
+    m: f64,
+    profile: MicromodulusProfile,
+) -> f64 {
     let (g0, e, dx) = (300.0, 3e9, 1e-3);
     let h = m * dx;
     let material = pmb(dim, e, h, profile, f64::INFINITY);
@@ -23,7 +27,15 @@ fn separation_energy<const D: usize>(dim: Dimensionality, m: f64, profile: Micro
     let s0 = peridyn::material::Pmb::critical_stretch_from_g0(g0, c, dim, profile, h);
     let n = (6.0 * m) as usize + 2;
     let (body, bonds) = lattice_body::<D>(n, dx, m, PartialVolume::Hhb);
-    let sim = Simulation::new(body, bonds, material, PartialVolume::Hhb, Loading::default(), None, 0.8);
+    let sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        PartialVolume::Hhb,
+        Loading::default(),
+        None,
+        0.8,
+    );
     let side = n as f64 * dx;
     let mid = 0.5 * side;
     // Window: the central square (or interval) of the plane, one third of the side wide.
@@ -43,9 +55,16 @@ fn separation_energy<const D: usize>(dim: Dimensionality, m: f64, profile: Micro
             }
             let l = sim.bonds.ref_lengths[b];
             let phi = sim.engine.quad.phi(l, sim.body.horizons[i], j);
-            let g = BondGeom { ref_len: l, len: l * (1.0 + s0), phi_ij: phi, phi_ji: phi, vol_j: sim.body.volumes[j] };
+            let g = BondGeom {
+                ref_len: l,
+                len: l * (1.0 + s0),
+                phi_ij: phi,
+                phi_ji: phi,
+                vol_j: sim.body.volumes[j],
+            };
             // bond_energy is node i's half of the pair micropotential, per unit volume of i.
-            energy += sim.body.volumes[i] * Material::<D>::bond_energy(&sim.engine.material, i, &g, &());
+            energy +=
+                sim.body.volumes[i] * Material::<D>::bond_energy(&sim.engine.material, i, &g, &());
         }
     }
     let area = (hi - lo).powi(D as i32 - 1) * if D == 2 { THICKNESS } else { 1.0 };
@@ -54,16 +73,27 @@ fn separation_energy<const D: usize>(dim: Dimensionality, m: f64, profile: Micro
 
 #[test]
 fn pmb_separation_energy_equals_g0() {
-    for (dim, name) in [(Dimensionality::PlaneStress, "plane stress"), (Dimensionality::PlaneStrain, "plane strain"), (Dimensionality::ThreeD, "3D")] {
+    for (dim, name) in [
+        (Dimensionality::PlaneStress, "plane stress"),
+        (Dimensionality::PlaneStrain, "plane strain"),
+        (Dimensionality::ThreeD, "3D"),
+    ] {
         for profile in [MicromodulusProfile::Constant, MicromodulusProfile::Conical] {
             for m in [3.0, 4.0, 5.0] {
-                let ratio = if dim.dim() == 2 { separation_energy::<2>(dim, m, profile) } else { separation_energy::<3>(dim, m, profile) };
+                let ratio = if dim.dim() == 2 {
+                    separation_energy::<2>(dim, m, profile)
+                } else {
+                    separation_energy::<3>(dim, m, profile)
+                };
                 println!("PMB {name:12} {profile:?} δ/Δx = {m}: G_PD/G0 = {ratio:.4}");
                 // The conical profile converges more slowly (its weight peaks at 3δ/4 and vanishes
                 // at δ, where the partial-volume cells sit); it is reported, asserted for the
                 // constant profile the papers calibrate.
                 if m >= 4.0 && profile == MicromodulusProfile::Constant {
-                    assert!((ratio - 1.0).abs() < 0.03, "{name} {profile:?} δ/Δx = {m}: G_PD/G0 = {ratio}");
+                    assert!(
+                        (ratio - 1.0).abs() < 0.03,
+                        "{name} {profile:?} δ/Δx = {m}: G_PD/G0 = {ratio}"
+                    );
                 }
             }
         }

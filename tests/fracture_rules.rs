@@ -64,24 +64,42 @@ end_time = 12e-6
 fn no_fail_precrack_and_symmetric_breakage() {
     let ld = LoadedDeck::from_str(DECK, Path::new("fracture_rules.toml")).unwrap();
     let model = build_model::<2>(&ld).unwrap();
-    let MaterialChoice::Pmb(pmb) = build_material(&ld.deck, model.horizon) else { panic!("pmb expected") };
+    let MaterialChoice::Pmb(pmb) = build_material(&ld.deck, model.horizon) else {
+        panic!("pmb expected")
+    };
     let (mut sim, report) = prepare(&ld, model, pmb).unwrap();
 
     // The pre-crack filter: no bond crosses the segment.
-    let crack = peridyn::bonds::Precrack::Segment { start: [-0.001, 0.005], end: [0.005, 0.005] };
+    let crack = peridyn::bonds::Precrack::Segment {
+        start: [-0.001, 0.005],
+        end: [0.005, 0.005],
+    };
     for i in 0..sim.body.len() {
         for b in sim.bonds.family(i) {
             let j = sim.bonds.neighbors[b] as usize;
-            assert!(!crack.cuts(sim.body.positions[i].as_slice(), sim.body.positions[j].as_slice()));
+            assert!(!crack.cuts(
+                sim.body.positions[i].as_slice(),
+                sim.body.positions[j].as_slice()
+            ));
         }
     }
 
     let dx = 2.5e-4;
     let near = |sim: &peridyn::solver::Simulation<2, peridyn::material::Pmb>, x: f64, y: f64| {
         let p = peridyn::math::Vector::<2>::new(x, y);
-        (0..sim.body.len()).min_by(|&a, &b| (sim.body.positions[a] - p).norm().partial_cmp(&(sim.body.positions[b] - p).norm()).unwrap()).unwrap()
+        (0..sim.body.len())
+            .min_by(|&a, &b| {
+                (sim.body.positions[a] - p)
+                    .norm()
+                    .partial_cmp(&(sim.body.positions[b] - p).norm())
+                    .unwrap()
+            })
+            .unwrap()
     };
-    let opening = |sim: &peridyn::solver::Simulation<2, peridyn::material::Pmb>, x: f64| sim.state.u[near(sim, x, 0.005 + dx / 2.0)][1] - sim.state.u[near(sim, x, 0.005 - dx / 2.0)][1];
+    let opening = |sim: &peridyn::solver::Simulation<2, peridyn::material::Pmb>, x: f64| {
+        sim.state.u[near(sim, x, 0.005 + dx / 2.0)][1]
+            - sim.state.u[near(sim, x, 0.005 - dx / 2.0)][1]
+    };
     let mut checked_opening = false;
     let mut previously_broken = vec![false; sim.state.status.len()];
     for step in 1..=report.steps {
@@ -92,29 +110,45 @@ fn no_fail_precrack_and_symmetric_breakage() {
         if !checked_opening && sim.state.broken > 0 {
             let (mouth, ligament) = (opening(&sim, dx / 2.0), opening(&sim, 0.02 - dx / 2.0));
             println!("first breakage at step {step}: opening at the crack mouth {mouth:.3e} m, across two rows of the far ligament {ligament:.3e} m");
-            assert!(mouth > 0.0 && mouth > 3.0 * ligament.abs(), "pre-crack did not open: mouth {mouth}, ligament {ligament}");
+            assert!(
+                mouth > 0.0 && mouth > 3.0 * ligament.abs(),
+                "pre-crack did not open: mouth {mouth}, ligament {ligament}"
+            );
             checked_opening = true;
         }
         if step % 20 == 0 || step == report.steps {
             for (b, &s) in sim.state.status.iter().enumerate() {
-                assert!(!(previously_broken[b] && s == INTACT), "bond {b} healed at step {step}");
+                assert!(
+                    !(previously_broken[b] && s == INTACT),
+                    "bond {b} healed at step {step}"
+                );
                 previously_broken[b] = s != INTACT;
             }
         }
     }
-    assert!(sim.state.broken > 0, "the test must break bonds to prove anything");
+    assert!(
+        sim.state.broken > 0,
+        "the test must break bonds to prove anything"
+    );
 
     let damage = sim.engine.damage(&sim.body, &sim.bonds, &sim.state);
     for name in ["top", "bottom", "island"] {
         for &i in &sim.body.node_sets[name] {
-            assert_eq!(damage[i as usize], 0.0, "no-fail node {i} of {name} is damaged");
+            assert_eq!(
+                damage[i as usize], 0.0,
+                "no-fail node {i} of {name} is damaged"
+            );
         }
     }
     // Symmetric breakage.
     for i in 0..sim.body.len() {
         for b in sim.bonds.family(i) {
             let r = sim.bonds.reverse(i, b).expect("families are symmetric");
-            assert_eq!(sim.state.status[b], sim.state.status[r], "bond {i}→{} and its reverse disagree", sim.bonds.neighbors[b]);
+            assert_eq!(
+                sim.state.status[b], sim.state.status[r],
+                "bond {i}→{} and its reverse disagree",
+                sim.bonds.neighbors[b]
+            );
         }
     }
     assert!(checked_opening);

@@ -13,19 +13,40 @@ use peridyn::solver::Simulation;
 /// Strain states probed: uniaxial, pure shear, biaxial.
 fn strains(dim: usize) -> Vec<[[f64; 3]; 3]> {
     let e = 1e-6;
-    let mut out = vec![[[e, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0; 3]], [[0.0, e, 0.0], [e, 0.0, 0.0], [0.0; 3]], [[e, 0.0, 0.0], [0.0, 0.4 * e, 0.0], [0.0; 3]]];
+    let mut out = vec![
+        [[e, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0; 3]],
+        [[0.0, e, 0.0], [e, 0.0, 0.0], [0.0; 3]],
+        [[e, 0.0, 0.0], [0.0, 0.4 * e, 0.0], [0.0; 3]],
+    ];
     if dim == 3 {
-        out.push([[0.3 * e, 0.0, 0.2 * e], [0.0, -0.5 * e, 0.0], [0.2 * e, 0.0, e]]);
+        out.push([
+            [0.3 * e, 0.0, 0.2 * e],
+            [0.0, -0.5 * e, 0.0],
+            [0.2 * e, 0.0, e],
+        ]);
     }
     out
 }
 
 /// Applies u = ε x to every node, evaluates forces, and returns the simulation.
-fn deformed<const D: usize, M: Material<D>>(m: f64, n: usize, material: M, strain: &[[f64; 3]; 3]) -> (Simulation<D, M>, usize) {
+fn deformed<const D: usize, M: Material<D>>(
+    m: f64,
+    n: usize,
+    material: M,
+    strain: &[[f64; 3]; 3],
+) -> (Simulation<D, M>, usize) {
     let dx = 1e-3;
     let (body, bonds) = lattice_body::<D>(n, dx, m, PartialVolume::Hhb);
     let centre = centre_node(&body);
-    let mut sim = Simulation::new(body, bonds, material, PartialVolume::Hhb, Loading::default(), None, 0.8);
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        PartialVolume::Hhb,
+        Loading::default(),
+        None,
+        0.8,
+    );
     for i in 0..sim.body.len() {
         let x = sim.body.positions[i];
         let u = Vector::<D>::from_fn(|a, _| (0..D).map(|b| strain[a][b] * x[b]).sum());
@@ -48,17 +69,30 @@ fn energy_error<const D: usize>(dim: Dimensionality, m: f64, strain: &[[f64; 3];
 
 #[test]
 fn pmb_bulk_energy_density_matches_classical() {
-    for (dim, name) in [(Dimensionality::PlaneStress, "plane stress"), (Dimensionality::PlaneStrain, "plane strain"), (Dimensionality::ThreeD, "3D")] {
+    for (dim, name) in [
+        (Dimensionality::PlaneStress, "plane stress"),
+        (Dimensionality::PlaneStrain, "plane strain"),
+        (Dimensionality::ThreeD, "3D"),
+    ] {
         for m in [3.0, 4.0, 5.0, 6.0] {
             for (k, strain) in strains(dim.dim()).iter().enumerate() {
-                let err = if dim.dim() == 2 { energy_error::<2>(dim, m, strain) } else { energy_error::<3>(dim, m, strain) };
-                println!("PMB {name:12} δ/Δx = {m}: strain state {k}: W_PD/W_classical − 1 = {err:+.4}");
+                let err = if dim.dim() == 2 {
+                    energy_error::<2>(dim, m, strain)
+                } else {
+                    energy_error::<3>(dim, m, strain)
+                };
+                println!(
+                    "PMB {name:12} δ/Δx = {m}: strain state {k}: W_PD/W_classical − 1 = {err:+.4}"
+                );
                 // 2D meets 2% from δ/Δx = 4. In 3D the HHB rule (seed 000, Eq. 12) over-counts the
                 // outer shell, where the ξ³ weight is largest: +2.7% at δ/Δx = 4, +2.3% at 5, within
                 // 2% only from 6 (see docs/verification.md). This asserts the 2% bar where it holds.
                 let holds_from = if dim.dim() == 2 { 4.0 } else { 6.0 };
                 if m >= holds_from {
-                    assert!(err.abs() < 0.02, "{name} δ/Δx = {m}, strain {k}: energy error {err}");
+                    assert!(
+                        err.abs() < 0.02,
+                        "{name} δ/Δx = {m}, strain {k}: energy error {err}"
+                    );
                 }
             }
         }
@@ -70,7 +104,13 @@ fn conical_profile_bulk_energy_matches_classical() {
     let m = 4.0;
     let strain = [[1e-6, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0; 3]];
     let h = m * 1e-3;
-    let material = pmb(Dimensionality::PlaneStress, 70e9, h, MicromodulusProfile::Conical, f64::INFINITY);
+    let material = pmb(
+        Dimensionality::PlaneStress,
+        70e9,
+        h,
+        MicromodulusProfile::Conical,
+        f64::INFINITY,
+    );
     let el = Material::<2>::elasticity(&material);
     let (sim, c) = deformed::<2, _>(m, 19, material, &strain);
     let w = sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c];
@@ -79,28 +119,54 @@ fn conical_profile_bulk_energy_matches_classical() {
     assert!(err.abs() < 0.02);
 }
 
-fn lps_stress_error<const D: usize>(dim: Dimensionality, nu: f64, m: f64, strain: &[[f64; 3]; 3]) -> f64 {
+fn lps_stress_error<const D: usize>(
+    dim: Dimensionality,
+    nu: f64,
+    m: f64,
+    strain: &[[f64; 3]; 3],
+) -> f64 {
     let h = m * 1e-3;
     let material = lps(dim, 70e9, nu, h, f64::INFINITY);
-    let el = Elasticity { youngs_modulus: 70e9, poisson_ratio: nu, dimensionality: dim };
+    let el = Elasticity {
+        youngs_modulus: 70e9,
+        poisson_ratio: nu,
+        dimensionality: dim,
+    };
     let n = (2.0 * m).ceil() as usize * 2 + 3;
     let (sim, c) = deformed::<D, _>(m, n, material, strain);
     let sigma = sim.engine.stress(&sim.body, &sim.bonds, &sim.state, c);
     let hooke = el.stress(strain, D);
-    let scale = (0..D).flat_map(|a| (0..D).map(move |b| (a, b))).map(|(a, b)| hooke[a][b].abs()).fold(0.0, f64::max);
-    (0..D).flat_map(|a| (0..D).map(move |b| (a, b))).map(|(a, b)| (sigma[a][b] - hooke[a][b]).abs() / scale).fold(0.0, f64::max)
+    let scale = (0..D)
+        .flat_map(|a| (0..D).map(move |b| (a, b)))
+        .map(|(a, b)| hooke[a][b].abs())
+        .fold(0.0, f64::max);
+    (0..D)
+        .flat_map(|a| (0..D).map(move |b| (a, b)))
+        .map(|(a, b)| (sigma[a][b] - hooke[a][b]).abs() / scale)
+        .fold(0.0, f64::max)
 }
 
 #[test]
 fn lps_bulk_stress_matches_hooke() {
-    for (dim, name) in [(Dimensionality::PlaneStress, "plane stress"), (Dimensionality::PlaneStrain, "plane strain"), (Dimensionality::ThreeD, "3D")] {
+    for (dim, name) in [
+        (Dimensionality::PlaneStress, "plane stress"),
+        (Dimensionality::PlaneStrain, "plane strain"),
+        (Dimensionality::ThreeD, "3D"),
+    ] {
         for nu in [0.2, 0.35, 0.45] {
             for m in [3.0, 4.0] {
                 for (k, strain) in strains(dim.dim()).iter().enumerate() {
-                    let err = if dim.dim() == 2 { lps_stress_error::<2>(dim, nu, m, strain) } else { lps_stress_error::<3>(dim, nu, m, strain) };
+                    let err = if dim.dim() == 2 {
+                        lps_stress_error::<2>(dim, nu, m, strain)
+                    } else {
+                        lps_stress_error::<3>(dim, nu, m, strain)
+                    };
                     println!("LPS {name:12} ν = {nu} δ/Δx = {m}: strain state {k}: max |σ_PD − σ_Hooke| / max|σ| = {err:.4}");
                     if m >= 4.0 {
-                        assert!(err < 0.02, "{name} ν = {nu} δ/Δx = {m} strain {k}: stress error {err}");
+                        assert!(
+                            err < 0.02,
+                            "{name} ν = {nu} δ/Δx = {m} strain {k}: stress error {err}"
+                        );
                     }
                 }
             }
@@ -110,18 +176,32 @@ fn lps_bulk_stress_matches_hooke() {
 
 #[test]
 fn lps_bulk_energy_matches_classical() {
-    for (dim, nu) in [(Dimensionality::PlaneStress, 0.35), (Dimensionality::PlaneStrain, 0.3), (Dimensionality::ThreeD, 0.2)] {
+    for (dim, nu) in [
+        (Dimensionality::PlaneStress, 0.35),
+        (Dimensionality::PlaneStrain, 0.3),
+        (Dimensionality::ThreeD, 0.2),
+    ] {
         let m = 4.0;
         for strain in strains(dim.dim()) {
             let h = m * 1e-3;
             let material = lps(dim, 70e9, nu, h, f64::INFINITY);
-            let el = Elasticity { youngs_modulus: 70e9, poisson_ratio: nu, dimensionality: dim };
+            let el = Elasticity {
+                youngs_modulus: 70e9,
+                poisson_ratio: nu,
+                dimensionality: dim,
+            };
             let (w, classical) = if dim.dim() == 2 {
                 let (sim, c) = deformed::<2, _>(m, 19, material, &strain);
-                (sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c], el.energy_density(&strain, 2))
+                (
+                    sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c],
+                    el.energy_density(&strain, 2),
+                )
             } else {
                 let (sim, c) = deformed::<3, _>(m, 19, material, &strain);
-                (sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c], el.energy_density(&strain, 3))
+                (
+                    sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c],
+                    el.energy_density(&strain, 3),
+                )
             };
             let err = w / classical - 1.0;
             println!("LPS {dim:?} ν = {nu}: energy error {err:+.4}");

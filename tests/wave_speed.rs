@@ -51,14 +51,21 @@ struct Design {
     sigma_over_delta: f64,
     /// Distance the pulse travels during the measurement, in Δx.
     travel: f64,
+    /// Out-of-plane thickness of 2D bodies (m): not 1, so that a thickness mistake shows.
+    thickness: f64,
 }
 
 /// Builds the slab for `D`, the material from the horizon, runs the pulse and returns
 /// (c_measured / c_p).
-fn measure<const D: usize, M: Material<D>>(label: &str, design: &Design, make: impl FnOnce(f64) -> M) -> f64 {
+fn measure<const D: usize, M: Material<D>>(
+    label: &str,
+    design: &Design,
+    make: impl FnOnce(f64, f64) -> M,
+) -> f64 {
     let started = Instant::now();
     let delta = design.m * DX;
-    let material = make(delta);
+    let thickness = if D == 2 { design.thickness } else { 1.0 };
+    let material = make(delta, thickness);
     let el = material.elasticity();
     let rho = material.density();
     let c_p = (el.p_wave_modulus() / rho).sqrt();
@@ -76,19 +83,40 @@ fn measure<const D: usize, M: Material<D>>(label: &str, design: &Design, make: i
     let (length, width) = (nx * DX, nw * DX);
     let x0 = end_margin;
     let shape = if D == 2 {
-        Shape::Rectangle { min: [0.0, 0.0], max: [length, width] }
+        Shape::Rectangle {
+            min: [0.0, 0.0],
+            max: [length, width],
+        }
     } else {
-        Shape::Box { min: [0.0, 0.0, 0.0], max: [length, width, width] }
+        Shape::Box {
+            min: [0.0, 0.0, 0.0],
+            max: [length, width, width],
+        }
     };
-    let cloud = lattice(&shape, D, DX, 1.0).unwrap();
-    let body = Body::<D>::from_cloud(cloud, delta, 1.0);
+    let cloud = lattice(&shape, D, DX, thickness).unwrap();
+    let body = Body::<D>::from_cloud(cloud, delta, thickness);
     let bonds = build_bonds(&body, PartialVolume::Hhb, &[]);
     let all: Vec<u32> = (0..body.len() as u32).collect();
     let mut loading = Loading::<D>::default();
     for k in 1..D {
-        loading.conditions.push(BoundaryCondition { set: "all".into(), nodes: all.clone(), kind: Kinematic::Displacement, component: k, value: 0.0, time: TimeFunction::Constant });
+        loading.conditions.push(BoundaryCondition {
+            set: "all".into(),
+            nodes: all.clone(),
+            kind: Kinematic::Displacement,
+            component: k,
+            value: 0.0,
+            time: TimeFunction::Constant,
+        });
     }
-    let mut sim = Simulation::new(body, bonds, material, PartialVolume::Hhb, loading, None, 0.8);
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        PartialVolume::Hhb,
+        loading,
+        None,
+        0.8,
+    );
 
     // Initial plane wave; strain amplitude ~1e-6 keeps the (geometrically nonlinear) bonds linear.
     let amp = 1e-6 * sigma;
@@ -143,7 +171,11 @@ fn measure<const D: usize, M: Material<D>>(label: &str, design: &Design, make: i
     let sxy: f64 = ts.iter().zip(&xs).map(|(t, x)| (t - mt) * (x - mx)).sum();
     let sxx: f64 = ts.iter().map(|t| (t - mt) * (t - mt)).sum();
     let c = sxy / sxx;
-    let resid = ts.iter().zip(&xs).map(|(t, x)| (x - mx - c * (t - mt)).abs()).fold(0.0, f64::max);
+    let resid = ts
+        .iter()
+        .zip(&xs)
+        .map(|(t, x)| (x - mx - c * (t - mt)).abs())
+        .fold(0.0, f64::max);
     let ratio = c / c_p;
     println!(
         "{label}: E = {:.4e}, nu = {:.4}, c_p = {c_p:.2} m/s, measured {c:.2} m/s, ratio {ratio:.4} \
@@ -166,53 +198,108 @@ fn measure<const D: usize, M: Material<D>>(label: &str, design: &Design, make: i
     ratio
 }
 
-fn pmb(dim: Dimensionality) -> impl FnOnce(f64) -> Pmb {
-    move |delta| {
+fn pmb(dim: Dimensionality) -> impl FnOnce(f64, f64) -> Pmb {
+    move |delta, thickness| {
         let c0 = Pmb::micromodulus(E, dim, MicromodulusProfile::Constant, delta);
-        Pmb::new(c0, f64::INFINITY, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
+        Pmb::new(
+            c0,
+            f64::INFINITY,
+            RHO,
+            dim,
+            MicromodulusProfile::Constant,
+            delta,
+            thickness,
+        )
     }
 }
 
-fn lps(dim: Dimensionality, nu: f64) -> impl FnOnce(f64) -> Lps {
-    move |delta| Lps::new(Elasticity { youngs_modulus: E, poisson_ratio: nu, dimensionality: dim }, Influence::Constant, delta, f64::INFINITY, RHO, 1.0)
+fn lps(dim: Dimensionality, nu: f64) -> impl FnOnce(f64, f64) -> Lps {
+    move |delta, thickness| {
+        Lps::new(
+            Elasticity {
+                youngs_modulus: E,
+                poisson_ratio: nu,
+                dimensionality: dim,
+            },
+            Influence::Constant,
+            delta,
+            f64::INFINITY,
+            RHO,
+            thickness,
+        )
+    }
 }
 
-const DESIGN_2D: Design = Design { m: 4.0, sigma_over_delta: 3.0, travel: 60.0 };
-const DESIGN_3D: Design = Design { m: 4.0, sigma_over_delta: 1.75, travel: 8.0 };
+const DESIGN_2D: Design = Design {
+    m: 4.0,
+    sigma_over_delta: 3.0,
+    travel: 60.0,
+    thickness: 0.5e-3,
+};
+const DESIGN_3D: Design = Design {
+    m: 4.0,
+    sigma_over_delta: 1.75,
+    travel: 8.0,
+    thickness: 1.0,
+};
 
 fn check(label: &str, ratio: f64) {
-    assert!((ratio - 1.0).abs() < TOL, "{label}: c/c_p = {ratio:.4}, off by more than {:.0}%", TOL * 100.0);
+    assert!(
+        (ratio - 1.0).abs() < TOL,
+        "{label}: c/c_p = {ratio:.4}, off by more than {:.0}%",
+        TOL * 100.0
+    );
 }
 
 #[test]
 fn pmb_plane_strain_p_wave_speed() {
-    let el = pmb(Dimensionality::PlaneStrain)(4.0 * DX).elasticity;
+    let el = pmb(Dimensionality::PlaneStrain)(4.0 * DX, 1.0).elasticity;
     assert_eq!(el.poisson_ratio, 0.25);
-    check("PMB plane strain", measure::<2, _>("PMB plane strain", &DESIGN_2D, pmb(Dimensionality::PlaneStrain)));
+    check(
+        "PMB plane strain",
+        measure::<2, _>(
+            "PMB plane strain",
+            &DESIGN_2D,
+            pmb(Dimensionality::PlaneStrain),
+        ),
+    );
 }
 
 #[test]
 fn pmb_plane_stress_p_wave_speed() {
-    let el = pmb(Dimensionality::PlaneStress)(4.0 * DX).elasticity;
+    let el = pmb(Dimensionality::PlaneStress)(4.0 * DX, 1.0).elasticity;
     assert!((el.poisson_ratio - 1.0 / 3.0).abs() < 1e-15);
-    check("PMB plane stress", measure::<2, _>("PMB plane stress", &DESIGN_2D, pmb(Dimensionality::PlaneStress)));
+    check(
+        "PMB plane stress",
+        measure::<2, _>(
+            "PMB plane stress",
+            &DESIGN_2D,
+            pmb(Dimensionality::PlaneStress),
+        ),
+    );
 }
 
 #[test]
 fn pmb_3d_p_wave_speed() {
     let _g = BIG.lock().unwrap_or_else(|e| e.into_inner());
-    let el = pmb(Dimensionality::ThreeD)(4.0 * DX).elasticity;
+    let el = pmb(Dimensionality::ThreeD)(4.0 * DX, 1.0).elasticity;
     assert_eq!(el.poisson_ratio, 0.25);
     // c_p² = (λ + 2μ)/ρ = 1.2 E/ρ for ν = 1/4.
     assert!((el.p_wave_modulus() / (1.2 * E) - 1.0).abs() < 1e-12);
-    check("PMB 3D", measure::<3, _>("PMB 3D", &DESIGN_3D, pmb(Dimensionality::ThreeD)));
+    check(
+        "PMB 3D",
+        measure::<3, _>("PMB 3D", &DESIGN_3D, pmb(Dimensionality::ThreeD)),
+    );
 }
 
 #[test]
 fn lps_plane_stress_p_wave_speed() {
     for nu in [0.3, 0.2] {
         let label = format!("LPS plane stress nu={nu}");
-        check(&label, measure::<2, _>(&label, &DESIGN_2D, lps(Dimensionality::PlaneStress, nu)));
+        check(
+            &label,
+            measure::<2, _>(&label, &DESIGN_2D, lps(Dimensionality::PlaneStress, nu)),
+        );
     }
 }
 
@@ -221,6 +308,9 @@ fn lps_3d_p_wave_speed() {
     for nu in [0.3, 0.2] {
         let _g = BIG.lock().unwrap_or_else(|e| e.into_inner());
         let label = format!("LPS 3D nu={nu}");
-        check(&label, measure::<3, _>(&label, &DESIGN_3D, lps(Dimensionality::ThreeD, nu)));
+        check(
+            &label,
+            measure::<3, _>(&label, &DESIGN_3D, lps(Dimensionality::ThreeD, nu)),
+        );
     }
 }

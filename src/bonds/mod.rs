@@ -59,6 +59,9 @@ impl Bonds {
     pub fn reverse(&self, i: usize, b: usize) -> Option<usize> {
         let j = self.neighbors[b] as usize;
         let r = self.family(j);
-        self.neighbors[r.clone()].binary_search(&(i as u32)).ok().map(|k| r.start + k)
+        self.neighbors[r.clone()]
+            .binary_search(&(i as u32))
+            .ok()
+            .map(|k| r.start + k)
     }
 }

@@ -58,14 +58,64 @@ pub struct NodeWeight {
 pub struct Quadrature {
     pub rule: PartialVolume,
     pub nodes: Vec<NodeWeight>,
+    /// Set when every node has the same volume, cell size and horizon.
+    uniform: Option<NodeWeight>,
+}
+
+/// Quadrature weights of a uniform grid: φ depends on |ξ| only.
+#[derive(Debug, Clone, Copy)]
+pub struct UniformWeights {
+    pub rule: PartialVolume,
+    pub node: NodeWeight,
+}
+
+impl UniformWeights {
+    /// φ(|ξ|) of seed 000, Eq. 12.
+    #[inline(always)]
+    pub fn phi(&self, len: f64) -> f64 {
+        let n = &self.node;
+        match self.rule {
+            PartialVolume::Hhb => ((n.horizon + n.half_cell - len) * n.inv_cell).clamp(0.0, 1.0),
+            PartialVolume::None => {
+                if len <= n.horizon {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
 }
 
 impl Quadrature {
     pub fn new(rule: PartialVolume, volumes: &[f64], cell_sizes: &[f64], horizons: &[f64]) -> Self {
         let nodes = (0..volumes.len())
-            .map(|i| NodeWeight { volume: volumes[i], half_cell: 0.5 * cell_sizes[i], inv_cell: 1.0 / cell_sizes[i], horizon: horizons[i] })
-            .collect();
-        Quadrature { rule, nodes }
+            .map(|i| NodeWeight {
+                volume: volumes[i],
+                half_cell: 0.5 * cell_sizes[i],
+                inv_cell: 1.0 / cell_sizes[i],
+                horizon: horizons[i],
+            })
+            .collect::<Vec<NodeWeight>>();
+        let first = nodes.first().copied();
+        let uniform = first.filter(|f| {
+            nodes.iter().all(|n| {
+                n.volume == f.volume && n.half_cell == f.half_cell && n.horizon == f.horizon
+            })
+        });
+        Quadrature {
+            rule,
+            nodes,
+            uniform,
+        }
+    }
+
+    /// The constant weights of a uniform grid, if the grid is uniform.
+    pub fn uniform(&self) -> Option<UniformWeights> {
+        self.uniform.map(|node| UniformWeights {
+            rule: self.rule,
+            node,
+        })
     }
 
     /// Fraction of node j's cell inside a horizon `horizon` at distance `len` (φ of Eqs. 12–14).

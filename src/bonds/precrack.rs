@@ -9,7 +9,11 @@ pub enum Precrack {
     /// 2D: the line segment from `start` to `end`.
     Segment { start: [f64; 2], end: [f64; 2] },
     /// 3D: the planar parallelogram `origin + a·edge1 + b·edge2`, a, b ∈ [0, 1].
-    Rectangle { origin: [f64; 3], edge1: [f64; 3], edge2: [f64; 3] },
+    Rectangle {
+        origin: [f64; 3],
+        edge1: [f64; 3],
+        edge2: [f64; 3],
+    },
 }
 
 impl Precrack {
@@ -31,8 +35,17 @@ impl Precrack {
                     return Err("segment start and end coincide: the crack has zero length".into());
                 }
             }
-            Precrack::Rectangle { origin, edge1, edge2 } => {
-                if origin.iter().chain(edge1).chain(edge2).any(|v| !v.is_finite()) {
+            Precrack::Rectangle {
+                origin,
+                edge1,
+                edge2,
+            } => {
+                if origin
+                    .iter()
+                    .chain(edge1)
+                    .chain(edge2)
+                    .any(|v| !v.is_finite())
+                {
                     return Err("rectangle coordinates must be finite".into());
                 }
                 let n = cross(edge1, edge2);
@@ -49,7 +62,11 @@ impl Precrack {
     pub fn cuts(&self, p: &[f64], q: &[f64]) -> bool {
         match self {
             Precrack::Segment { start, end } => segments_cross(p, q, start, end),
-            Precrack::Rectangle { origin, edge1, edge2 } => {
+            Precrack::Rectangle {
+                origin,
+                edge1,
+                edge2,
+            } => {
                 let n = cross(edge1, edge2);
                 let dp = (0..3).map(|k| (p[k] - origin[k]) * n[k]).sum::<f64>();
                 let dq = (0..3).map(|k| (q[k] - origin[k]) * n[k]).sum::<f64>();
@@ -71,7 +88,11 @@ impl Precrack {
 }
 
 fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -101,16 +122,26 @@ mod tests {
 
     #[test]
     fn segment_cuts_crossing_bonds_only() {
-        let c = Precrack::Segment { start: [0.0, 0.0], end: [1.0, 0.0] };
+        let c = Precrack::Segment {
+            start: [0.0, 0.0],
+            end: [1.0, 0.0],
+        };
         assert!(c.cuts(&[0.5, -0.1], &[0.5, 0.1]));
         assert!(!c.cuts(&[1.5, -0.1], &[1.5, 0.1]));
         assert!(!c.cuts(&[0.5, 0.1], &[0.6, 0.2]));
-        assert!(!c.cuts(&[0.5, 0.0], &[0.5, 0.2]), "endpoint on the crack does not cut");
+        assert!(
+            !c.cuts(&[0.5, 0.0], &[0.5, 0.2]),
+            "endpoint on the crack does not cut"
+        );
     }
 
     #[test]
     fn rectangle_cuts_crossing_bonds_only() {
-        let c = Precrack::Rectangle { origin: [0.0, 0.0, 0.0], edge1: [1.0, 0.0, 0.0], edge2: [0.0, 0.0, 1.0] };
+        let c = Precrack::Rectangle {
+            origin: [0.0, 0.0, 0.0],
+            edge1: [1.0, 0.0, 0.0],
+            edge2: [0.0, 0.0, 1.0],
+        };
         assert!(c.cuts(&[0.5, -0.1, 0.5], &[0.5, 0.1, 0.5]));
         assert!(!c.cuts(&[0.5, -0.1, 1.5], &[0.5, 0.1, 1.5]));
         assert!(!c.cuts(&[0.5, 0.1, 0.5], &[0.5, 0.2, 0.5]));

@@ -12,12 +12,20 @@ const CHUNK: usize = 2048;
 /// horizon, |ξ| < max(δ_i + r_j/2, δ_j + r_i/2) (partial volumes), or |ξ| ≤ δ without them.
 /// The rule is symmetric, so bond i→j exists exactly when j→i does. Bonds crossing a
 /// pre-crack are not created.
-pub fn build_bonds<const D: usize>(body: &Body<D>, rule: PartialVolume, precracks: &[Precrack]) -> Bonds {
+pub fn build_bonds<const D: usize>(
+    body: &Body<D>,
+    rule: PartialVolume,
+    precracks: &[Precrack],
+) -> Bonds {
     let n = body.len();
     if n == 0 {
-        return Bonds { offsets: vec![0], ..Default::default() };
+        return Bonds {
+            offsets: vec![0],
+            ..Default::default()
+        };
     }
-    let max_reach = body.max_horizon() + rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max));
+    let max_reach =
+        body.max_horizon() + rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max));
     let grid = CellGrid::new(body, max_reach);
 
     let chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..n)
@@ -42,7 +50,11 @@ pub fn build_bonds<const D: usize>(body: &Body<D>, rule: PartialVolume, precrack
                         PartialVolume::Hhb => len < reach_ij.max(reach_ji),
                         PartialVolume::None => len <= reach_ij.max(reach_ji),
                     };
-                    if inside && !precracks.iter().any(|c| c.cuts(xi.as_slice(), body.positions[j].as_slice())) {
+                    if inside
+                        && !precracks
+                            .iter()
+                            .any(|c| c.cuts(xi.as_slice(), body.positions[j].as_slice()))
+                    {
                         family.push((j as u32, len));
                     }
                 });
@@ -90,13 +102,23 @@ impl CellGrid {
         let mut lo = [0.0; 3];
         let mut hi = [0.0; 3];
         for k in 0..D {
-            lo[k] = body.positions.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min);
-            hi[k] = body.positions.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max);
+            lo[k] = body
+                .positions
+                .iter()
+                .map(|p| p[k])
+                .fold(f64::INFINITY, f64::min);
+            hi[k] = body
+                .positions
+                .iter()
+                .map(|p| p[k])
+                .fold(f64::NEG_INFINITY, f64::max);
         }
         let mut size = radius.max(f64::MIN_POSITIVE);
         // Keep the number of cells bounded (sparse bodies, tiny horizons).
         loop {
-            let cells: f64 = (0..D).map(|k| ((hi[k] - lo[k]) / size).floor() + 1.0).product();
+            let cells: f64 = (0..D)
+                .map(|k| ((hi[k] - lo[k]) / size).floor() + 1.0)
+                .product();
             if cells <= 4.0 * body.len() as f64 + 64.0 {
                 break;
             }
@@ -116,7 +138,11 @@ impl CellGrid {
             c
         };
         let mut start = vec![0usize; ncell + 1];
-        let cells: Vec<usize> = body.positions.iter().map(|p| cell_of(p.as_slice())).collect();
+        let cells: Vec<usize> = body
+            .positions
+            .iter()
+            .map(|p| cell_of(p.as_slice()))
+            .collect();
         for &c in &cells {
             start[c + 1] += 1;
         }
@@ -129,7 +155,14 @@ impl CellGrid {
             items[fill[c]] = i;
             fill[c] += 1;
         }
-        CellGrid { lo, size, dims, dim: D, start, items }
+        CellGrid {
+            lo,
+            size,
+            dims,
+            dim: D,
+            start,
+            items,
+        }
     }
 
     /// Calls `f` for every node in the 3^D cells around `p`.
@@ -138,7 +171,11 @@ impl CellGrid {
         for k in 0..self.dim {
             q[k] = (((p[k] - self.lo[k]) / self.size) as isize).min(self.dims[k] as isize - 1);
         }
-        let (rz, ry) = if self.dim == 3 { (1isize, 1isize) } else { (0, 1) };
+        let (rz, ry) = if self.dim == 3 {
+            (1isize, 1isize)
+        } else {
+            (0, 1)
+        };
         for dz in -rz..=rz {
             let z = q[2] + dz;
             if z < 0 || z >= self.dims[2] as isize {

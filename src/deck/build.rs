@@ -48,21 +48,59 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     let dimensionality = dimensionality(deck).expect("validated deck");
     let thickness = deck.thickness.unwrap_or(1.0);
     let (cloud, horizon, rule) = match &deck.discretization {
-        Discretization::Lattice { shape, spacing, horizon, horizon_ratio, partial_volume } => {
+        Discretization::Lattice {
+            shape,
+            spacing,
+            horizon,
+            horizon_ratio,
+            partial_volume,
+        } => {
             let h = horizon.unwrap_or_else(|| horizon_ratio.unwrap_or(3.0) * spacing);
-            let cloud = lattice(shape, D, *spacing, thickness).map_err(|e| ld.locate(vec![DeckIssue::new("discretization", e)]))?;
+            let cloud = lattice(shape, D, *spacing, thickness)
+                .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.shape", e)]))?;
             (cloud, h, *partial_volume)
         }
-        Discretization::PointCloud { file, horizon, partial_volume } => {
+        Discretization::PointCloud {
+            file,
+            horizon,
+            partial_volume,
+        } => {
             let path = ld.base_dir().join(file);
-            let pc = read_point_cloud(&path, D).map_err(|e| ld.locate(vec![DeckIssue::new("discretization.file", e.to_string())]))?;
-            let cell_sizes = pc.volumes.iter().map(|&v| if D == 2 { v.sqrt() } else { v.cbrt() }).collect();
-            let volumes = pc.volumes.iter().map(|&v| if D == 2 { v * thickness } else { v }).collect();
-            (NodeCloud { positions: pc.positions, volumes, cell_sizes, blocks: pc.blocks }, *horizon, *partial_volume)
+            let pc = read_point_cloud(&path, D).map_err(|e| {
+                ld.locate(vec![DeckIssue::new("discretization.file", e.to_string())])
+            })?;
+            let cell_sizes = pc
+                .volumes
+                .iter()
+                .map(|&v| if D == 2 { v.sqrt() } else { v.cbrt() })
+                .collect();
+            let volumes = pc
+                .volumes
+                .iter()
+                .map(|&v| if D == 2 { v * thickness } else { v })
+                .collect();
+            (
+                NodeCloud {
+                    positions: pc.positions,
+                    volumes,
+                    cell_sizes,
+                    blocks: pc.blocks,
+                },
+                *horizon,
+                *partial_volume,
+            )
         }
     };
     if cloud.is_empty() {
-        return Err(ld.locate(vec![DeckIssue::new("discretization", "the discretization produced no nodes; check the shape and spacing")]));
+        let at = if matches!(deck.discretization, Discretization::Lattice { .. }) {
+            "discretization.shape"
+        } else {
+            "discretization"
+        };
+        return Err(ld.locate(vec![DeckIssue::new(
+            at,
+            "the discretization produced no nodes; check the shape and spacing",
+        )]));
     }
     let mut body = Body::<D>::from_cloud(cloud, horizon, thickness);
     let spacing = body.min_cell_size();
@@ -75,7 +113,13 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     let mut issues = Vec::new();
     for (k, set) in deck.node_sets.iter().enumerate() {
         if body.add_node_set(&set.name, &set.region) == 0 {
-            issues.push(DeckIssue::new(&format!("node_sets[{k}].region"), format!("node set {:?} selects no nodes; check its region against the body", set.name)));
+            issues.push(DeckIssue::new(
+                &format!("node_sets[{k}].region"),
+                format!(
+                    "node set {:?} selects no nodes; check its region against the body",
+                    set.name
+                ),
+            ));
         }
     }
     if !issues.is_empty() {
@@ -101,7 +145,12 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     for load in &deck.loads {
         let (set, value, time, area) = match load {
             LoadDeck::BodyForce { set, value, time } => (set, value, time, None),
-            LoadDeck::Traction { set, value, time, area } => (set, value, time, Some(*area)),
+            LoadDeck::Traction {
+                set,
+                value,
+                time,
+                area,
+            } => (set, value, time, Some(*area)),
         };
         let nodes = body.node_set(set).expect("validated set name");
         let mut density = vector_from_slice::<D>(value);
@@ -110,12 +159,35 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             let volume: f64 = nodes.iter().map(|&i| body.volumes[i as usize]).sum();
             density *= area / volume;
         }
-        loading.loads.push(Load { set: set.clone(), nodes, density, time: time.clone() });
+        loading.loads.push(Load {
+            set: set.clone(),
+            nodes,
+            density,
+            time: time.clone(),
+        });
     }
     let SolverDeck::Explicit { damping, .. } = &deck.solver;
     loading.damping = *damping;
-    let initial_velocities = deck.initial_velocities.iter().map(|iv| (body.node_set(&iv.set).expect("validated set name"), iv.value.clone())).collect();
-    Ok(Model { body, bonds, loading, rule, horizon, spacing, dimensionality, initial_velocities })
+    let initial_velocities = deck
+        .initial_velocities
+        .iter()
+        .map(|iv| {
+            (
+                body.node_set(&iv.set).expect("validated set name"),
+                iv.value.clone(),
+            )
+        })
+        .collect();
+    Ok(Model {
+        body,
+        bonds,
+        loading,
+        rule,
+        horizon,
+        spacing,
+        dimensionality,
+        initial_velocities,
+    })
 }
 
 /// Calibrates the deck's material for a horizon δ.
@@ -123,17 +195,40 @@ pub fn build_material(deck: &Deck, horizon: f64) -> MaterialChoice {
     let dim = dimensionality(deck).expect("validated deck");
     let thickness = deck.thickness.unwrap_or(1.0);
     match &deck.material {
-        MaterialDeck::Pmb { density, youngs_modulus, micromodulus, fracture_energy, critical_stretch, profile, .. } => {
-            let c0 = micromodulus.unwrap_or_else(|| Pmb::micromodulus(youngs_modulus.unwrap_or(0.0), dim, *profile, horizon));
+        MaterialDeck::Pmb {
+            density,
+            youngs_modulus,
+            micromodulus,
+            fracture_energy,
+            critical_stretch,
+            profile,
+            ..
+        } => {
+            let c0 = micromodulus.unwrap_or_else(|| {
+                Pmb::micromodulus(youngs_modulus.unwrap_or(0.0), dim, *profile, horizon)
+            });
             let s0 = match (fracture_energy, critical_stretch) {
                 (_, Some(s)) => *s,
                 (Some(g), None) => Pmb::critical_stretch_from_g0(*g, c0, dim, *profile, horizon),
                 (None, None) => f64::INFINITY,
             };
-            MaterialChoice::Pmb(Pmb::new(c0, s0, *density, dim, *profile, horizon, thickness))
+            MaterialChoice::Pmb(Pmb::new(
+                c0, s0, *density, dim, *profile, horizon, thickness,
+            ))
         }
-        MaterialDeck::Lps { density, youngs_modulus, poisson_ratio, fracture_energy, critical_stretch, influence } => {
-            let el = Elasticity { youngs_modulus: *youngs_modulus, poisson_ratio: *poisson_ratio, dimensionality: dim };
+        MaterialDeck::Lps {
+            density,
+            youngs_modulus,
+            poisson_ratio,
+            fracture_energy,
+            critical_stretch,
+            influence,
+        } => {
+            let el = Elasticity {
+                youngs_modulus: *youngs_modulus,
+                poisson_ratio: *poisson_ratio,
+                dimensionality: dim,
+            };
             let s0 = match (fracture_energy, critical_stretch) {
                 (_, Some(s)) => *s,
                 (Some(g), None) => Lps::critical_stretch_from_g0(*g, &el, horizon),
@@ -146,6 +241,17 @@ pub fn build_material(deck: &Deck, horizon: f64) -> MaterialChoice {
 
 /// The solver settings of a deck.
 pub fn explicit_settings(deck: &Deck) -> ExplicitSettings {
-    let SolverDeck::Explicit { steps, end_time, dt, safety_factor, .. } = &deck.solver;
-    ExplicitSettings { steps: *steps, end_time: *end_time, dt: *dt, safety_factor: *safety_factor }
+    let SolverDeck::Explicit {
+        steps,
+        end_time,
+        dt,
+        safety_factor,
+        ..
+    } = &deck.solver;
+    ExplicitSettings {
+        steps: *steps,
+        end_time: *end_time,
+        dt: *dt,
+        safety_factor: *safety_factor,
+    }
 }

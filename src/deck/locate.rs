@@ -70,7 +70,12 @@ pub fn line_col(src: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(src.len());
     let before = &src[..offset];
     let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+    let col = before
+        .rsplit('\n')
+        .next()
+        .map(|l| l.chars().count())
+        .unwrap_or(0)
+        + 1;
     (line, col)
 }
 
@@ -81,7 +86,9 @@ pub struct Located {
 
 impl Located {
     pub fn new(src: &str) -> Self {
-        Located { doc: ImDocument::parse(src.to_string()).ok() }
+        Located {
+            doc: ImDocument::parse(src.to_string()).ok(),
+        }
     }
 
     /// The span of the key at `path` (or of the value for array elements); falls back to the
@@ -108,6 +115,35 @@ impl Located {
             }
         }
         best
+    }
+
+    /// Narrows a parse error whose span covers a whole table. Inside internally tagged enums
+    /// (`type = "..."` tables: material, discretization, solver, loads, shapes, pre-cracks,
+    /// time functions) serde reports errors without a span, so the error lands on the enclosing
+    /// table. This finds, under `path`, the key the message names (`unknown field `k``), the
+    /// `type` key of an `unknown variant `v``, or the value it quotes (`invalid type: string "s"`,
+    /// `invalid value: integer `n``, `invalid length n`), and returns its path and span.
+    pub fn refine(&self, path: &KeyPath, message: &str) -> Option<(KeyPath, Range<usize>)> {
+        let doc = self.doc.as_ref()?;
+        let mut node = Node::of(doc.as_item());
+        for e in &path.0 {
+            node = match e {
+                PathElem::Key(k) => node.get_key(k)?.1,
+                PathElem::Index(i) => node.get_index(*i)?,
+            };
+        }
+        if !matches!(
+            node,
+            Node::Table(_)
+                | Node::Value(Value::InlineTable(_))
+                | Node::Item(Item::ArrayOfTables(_))
+        ) {
+            return None;
+        }
+        let target = Target::from_message(message)?;
+        let mut found = None;
+        find(node, path.clone(), &target, &mut found);
+        found
     }
 
     /// The deepest key path whose key or value contains `offset`.
@@ -159,8 +195,12 @@ impl<'a> Node<'a> {
     }
     fn get_key(&self, k: &str) -> Option<(Option<Range<usize>>, Node<'a>)> {
         match self {
-            Node::Table(t) => t.get_key_value(k).map(|(key, item)| (key.span(), Node::of(item))),
-            Node::Value(Value::InlineTable(t)) => t.get_key_value(k).map(|(key, item)| (key.span(), Node::of(item))),
+            Node::Table(t) => t
+                .get_key_value(k)
+                .map(|(key, item)| (key.span(), Node::of(item))),
+            Node::Value(Value::InlineTable(t)) => t
+                .get_key_value(k)
+                .map(|(key, item)| (key.span(), Node::of(item))),
             _ => None,
         }
     }
@@ -197,6 +237,114 @@ fn descend(node: Node, offset: usize, path: &mut KeyPath) {
                 *path = sub;
                 return;
             }
+        }
+    }
+}
+
+/// What a serde message points at.
+enum Target {
+    Key(String),
+    Variant(String),
+    Str(String),
+    Int(i64),
+    Float(f64),
+    Bool(bool),
+    Length(usize),
+}
+
+impl Target {
+    fn from_message(m: &str) -> Option<Target> {
+        let quoted = |prefix: &str, open: char, close: char| -> Option<String> {
+            let rest = m.split(prefix).nth(1)?;
+            let rest = rest.strip_prefix(open)?;
+            Some(rest[..rest.find(close)?].to_string())
+        };
+        if let Some(k) = quoted("unknown field ", '`', '`') {
+            return Some(Target::Key(k));
+        }
+        if let Some(v) = quoted("unknown variant ", '`', '`') {
+            return Some(Target::Variant(v));
+        }
+        if let Some(s) = quoted(": string ", '"', '"') {
+            return Some(Target::Str(s));
+        }
+        if let Some(n) = quoted(": integer ", '`', '`') {
+            return n.parse().ok().map(Target::Int);
+        }
+        if let Some(x) = quoted(": floating point ", '`', '`') {
+            return x.parse().ok().map(Target::Float);
+        }
+        if let Some(b) = quoted(": boolean ", '`', '`') {
+            return b.parse().ok().map(Target::Bool);
+        }
+        let n = m
+            .split("invalid length ")
+            .nth(1)?
+            .split(|c: char| !c.is_ascii_digit())
+            .next()?;
+        n.parse().ok().map(Target::Length)
+    }
+
+    fn matches_value(&self, v: &Value) -> bool {
+        match (self, v) {
+            (Target::Str(s), Value::String(x)) => x.value() == s,
+            (Target::Int(n), Value::Integer(x)) => x.value() == n,
+            (Target::Float(f), Value::Float(x)) => x.value() == f,
+            (Target::Bool(b), Value::Boolean(x)) => x.value() == b,
+            (Target::Length(n), Value::Array(a)) => a.len() == *n,
+            _ => false,
+        }
+    }
+}
+
+/// Depth-first, in document order: the first key or value under `node` that `target` names.
+fn find(node: Node, path: KeyPath, target: &Target, found: &mut Option<(KeyPath, Range<usize>)>) {
+    if found.is_some() {
+        return;
+    }
+    for k in node.keys() {
+        let Some((key_span, child)) = node.get_key(&k) else {
+            continue;
+        };
+        let here = path.key(&k);
+        let hit = match (target, child) {
+            (Target::Key(name), _) => *name == k,
+            (Target::Variant(v), Node::Value(Value::String(s))) => k == "type" && s.value() == v,
+            (_, Node::Value(v)) => target.matches_value(v),
+            _ => false,
+        };
+        if hit {
+            let span = if matches!(target, Target::Key(_)) {
+                key_span.or(child.span())
+            } else {
+                child.span().or(key_span)
+            };
+            if let Some(span) = span {
+                *found = Some((here, span));
+                return;
+            }
+        }
+        find(child, here, target, found);
+        if found.is_some() {
+            return;
+        }
+    }
+    for i in 0..node.len() {
+        let Some(child) = node.get_index(i) else {
+            continue;
+        };
+        let here = path.index(i);
+        if let Node::Value(v) = child {
+            if !matches!(target, Target::Key(_) | Target::Variant(_)) && target.matches_value(v) {
+                if let Some(span) = child.span() {
+                    *found = Some((here, span));
+                    return;
+                }
+            }
+        }
+        find(child, here, target, found);
+        if found.is_some() {
+            return;
         }
     }
 }

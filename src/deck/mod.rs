@@ -21,7 +21,10 @@ pub struct DeckIssue {
 
 impl DeckIssue {
     pub fn new(path: &str, message: impl Into<String>) -> Self {
-        DeckIssue { path: KeyPath::parse(path), message: message.into() }
+        DeckIssue {
+            path: KeyPath::parse(path),
+            message: message.into(),
+        }
     }
 }
 
@@ -38,9 +41,17 @@ pub struct LocatedIssue {
 impl fmt::Display for LocatedIssue {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.path.is_empty() {
-            write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.message)
+            write!(
+                f,
+                "{}:{}:{}: {}",
+                self.file, self.line, self.column, self.message
+            )
         } else {
-            write!(f, "{}:{}:{}: {}: {}", self.file, self.line, self.column, self.path, self.message)
+            write!(
+                f,
+                "{}:{}:{}: {}: {}",
+                self.file, self.line, self.column, self.path, self.message
+            )
         }
     }
 }
@@ -49,7 +60,10 @@ impl fmt::Display for LocatedIssue {
 #[derive(Debug, thiserror::Error)]
 pub enum DeckError {
     #[error("{file}: cannot read the deck: {source}")]
-    Io { file: String, source: std::io::Error },
+    Io {
+        file: String,
+        source: std::io::Error,
+    },
     #[error("{}", .0.iter().map(|i| i.to_string()).collect::<Vec<_>>().join("\n"))]
     Invalid(Vec<LocatedIssue>),
 }
@@ -76,7 +90,10 @@ pub struct LoadedDeck {
 impl LoadedDeck {
     /// Reads, parses and validates a deck file.
     pub fn from_file(path: &Path) -> Result<Self, DeckError> {
-        let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io { file: path.display().to_string(), source })?;
+        let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io {
+            file: path.display().to_string(),
+            source,
+        })?;
         Self::from_str(&src, path)
     }
 
@@ -86,14 +103,30 @@ impl LoadedDeck {
         let deck: Deck = match toml::from_str(src) {
             Ok(d) => d,
             Err(e) => {
-                let offset = e.span().map(|r| r.start).unwrap_or(0);
-                let (line, column) = locate::line_col(src, offset);
-                let path = locate::Located::new(src).path_at(offset).to_string();
+                let mut offset = e.span().map(|r| r.start).unwrap_or(0);
+                let located = locate::Located::new(src);
+                let mut path = located.path_at(offset);
                 let message = e.message().trim().replace('\n', " ");
-                return Err(DeckError::Invalid(vec![LocatedIssue { file: name, line, column, path, message }]));
+                if let Some((p, span)) = located.refine(&path, &message) {
+                    path = p;
+                    offset = span.start;
+                }
+                let (line, column) = locate::line_col(src, offset);
+                let path = path.to_string();
+                return Err(DeckError::Invalid(vec![LocatedIssue {
+                    file: name,
+                    line,
+                    column,
+                    path,
+                    message,
+                }]));
             }
         };
-        let loaded = LoadedDeck { deck, file: file.to_path_buf(), src: src.to_string() };
+        let loaded = LoadedDeck {
+            deck,
+            file: file.to_path_buf(),
+            src: src.to_string(),
+        };
         let issues = validate::validate(&loaded.deck);
         if !issues.is_empty() {
             return Err(loaded.locate(issues));
@@ -110,7 +143,13 @@ impl LoadedDeck {
                 .map(|i| {
                     let offset = located.span_of(&i.path).map(|r| r.start).unwrap_or(0);
                     let (line, column) = locate::line_col(&self.src, offset);
-                    LocatedIssue { file: self.file.display().to_string(), line, column, path: i.path.to_string(), message: i.message }
+                    LocatedIssue {
+                        file: self.file.display().to_string(),
+                        line,
+                        column,
+                        path: i.path.to_string(),
+                        message: i.message,
+                    }
                 })
                 .collect(),
         )
@@ -118,6 +157,9 @@ impl LoadedDeck {
 
     /// The folder relative paths in the deck are taken from.
     pub fn base_dir(&self) -> PathBuf {
-        self.file.parent().map(Path::to_path_buf).unwrap_or_default()
+        self.file
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default()
     }
 }

@@ -252,6 +252,10 @@ fn default_true() -> bool {
 
 impl Default for OutputDeck {
     fn default() -> Self {
-        OutputDeck { history_interval: default_history(), snapshots: default_snapshots(), png: true }
+        OutputDeck {
+            history_interval: default_history(),
+            snapshots: default_snapshots(),
+            png: true,
+        }
     }
 }

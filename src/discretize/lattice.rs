@@ -14,15 +14,23 @@ pub fn lattice(shape: &Shape, dim: usize, dx: f64, thickness: f64) -> Result<Nod
     for k in 0..dim {
         let n = ((hi[k] - lo[k]) / dx - 1e-9).ceil().max(1.0);
         if n > 1e8 {
-            return Err(format!("spacing {dx} gives {n} cells along axis {k}; is the spacing in metres?"));
+            return Err(format!(
+                "spacing {dx} gives {n} cells along axis {k}; is the spacing in metres?"
+            ));
         }
         counts[k] = n as usize;
     }
     let total: f64 = counts.iter().map(|&c| c as f64).product();
     if total > 2.0e9 {
-        return Err(format!("the lattice would have {total:.3e} cells; the limit is 2e9 nodes"));
+        return Err(format!(
+            "the lattice would have {total:.3e} cells; the limit is 2e9 nodes"
+        ));
     }
-    let volume = if dim == 2 { dx * dx * thickness } else { dx * dx * dx };
+    let volume = if dim == 2 {
+        dx * dx * thickness
+    } else {
+        dx * dx * dx
+    };
     let mut cloud = NodeCloud::default();
     let mut p = [0.0; 3];
     for iz in 0..counts[2] {
@@ -30,7 +38,11 @@ pub fn lattice(shape: &Shape, dim: usize, dx: f64, thickness: f64) -> Result<Nod
             for ix in 0..counts[0] {
                 p[0] = lo[0] + (ix as f64 + 0.5) * dx;
                 p[1] = lo[1] + (iy as f64 + 0.5) * dx;
-                p[2] = if dim == 3 { lo[2] + (iz as f64 + 0.5) * dx } else { 0.0 };
+                p[2] = if dim == 3 {
+                    lo[2] + (iz as f64 + 0.5) * dx
+                } else {
+                    0.0
+                };
                 if shape.contains(&p[..dim]) {
                     cloud.positions.push(p);
                     cloud.volumes.push(volume);

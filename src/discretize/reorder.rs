@@ -23,7 +23,11 @@ pub fn morton_order(positions: &[[f64; 3]], dim: usize, cell: f64) -> Vec<u32> {
         }
         key
     };
-    let mut order: Vec<(u64, u32)> = positions.iter().enumerate().map(|(i, p)| (key(p), i as u32)).collect();
+    let mut order: Vec<(u64, u32)> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (key(p), i as u32))
+        .collect();
     order.sort_unstable();
     order.into_iter().map(|(_, i)| i).collect()
 }

@@ -51,7 +51,11 @@ pub struct Loading<const D: usize> {
 impl<const D: usize> Loading<D> {
     /// Prescribes the half-step velocities (t = t_n + dt/2) of velocity conditions.
     pub fn apply_half_step_velocity(&self, state: &mut State<D>, t_half: f64) {
-        for bc in self.conditions.iter().filter(|c| c.kind == Kinematic::Velocity) {
+        for bc in self
+            .conditions
+            .iter()
+            .filter(|c| c.kind == Kinematic::Velocity)
+        {
             let v = bc.value * bc.time.value(t_half);
             for &i in &bc.nodes {
                 state.v[i as usize][bc.component] = v;
@@ -61,7 +65,11 @@ impl<const D: usize> Loading<D> {
 
     /// After the drift to t: overwrites displacements of displacement conditions.
     pub fn apply_displacements(&self, body: &Body<D>, state: &mut State<D>, t: f64) {
-        for bc in self.conditions.iter().filter(|c| c.kind == Kinematic::Displacement) {
+        for bc in self
+            .conditions
+            .iter()
+            .filter(|c| c.kind == Kinematic::Displacement)
+        {
             let u = bc.value * bc.time.value(t);
             for &i in &bc.nodes {
                 let i = i as usize;

@@ -25,7 +25,9 @@ impl TimeFunction {
                 if duration.is_finite() && *duration > 0.0 {
                     Ok(())
                 } else {
-                    Err(format!("ramp duration must be a positive time in seconds, found {duration}"))
+                    Err(format!(
+                        "ramp duration must be a positive time in seconds, found {duration}"
+                    ))
                 }
             }
             TimeFunction::Table { points } => {
@@ -37,7 +39,10 @@ impl TimeFunction {
                 }
                 for w in points.windows(2) {
                     if w[1][0] <= w[0][0] {
-                        return Err(format!("table times must increase strictly, found {} after {}", w[1][0], w[0][0]));
+                        return Err(format!(
+                            "table times must increase strictly, found {} after {}",
+                            w[1][0], w[0][0]
+                        ));
                     }
                 }
                 Ok(())
@@ -103,11 +108,17 @@ mod tests {
 
     #[test]
     fn table_interpolates_and_holds() {
-        let f = TimeFunction::Table { points: vec![[0.0, 0.0], [1.0, 2.0], [3.0, 2.0]] };
+        let f = TimeFunction::Table {
+            points: vec![[0.0, 0.0], [1.0, 2.0], [3.0, 2.0]],
+        };
         assert_eq!(f.value(0.5), 1.0);
         assert_eq!(f.value(5.0), 2.0);
         assert_eq!(f.rate(0.5), 2.0);
         assert_eq!(f.rate(2.0), 0.0);
-        assert!(TimeFunction::Table { points: vec![[1.0, 0.0], [1.0, 1.0]] }.validate().is_err());
+        assert!(TimeFunction::Table {
+            points: vec![[1.0, 0.0], [1.0, 1.0]]
+        }
+        .validate()
+        .is_err());
     }
 }

@@ -12,6 +12,15 @@ pub enum Dimensionality {
 }
 
 impl Dimensionality {
+    /// Plain name for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Dimensionality::ThreeD => "3D",
+            Dimensionality::PlaneStress => "plane stress",
+            Dimensionality::PlaneStrain => "plane strain",
+        }
+    }
+
     pub fn dim(self) -> usize {
         match self {
             Dimensionality::ThreeD => 3,
@@ -68,7 +77,8 @@ impl Elasticity {
         let mut dev2 = 0.0;
         for a in 0..dim {
             for b in 0..dim {
-                let e = 0.5 * (strain[a][b] + strain[b][a]) - if a == b { tr / dim as f64 } else { 0.0 };
+                let e = 0.5 * (strain[a][b] + strain[b][a])
+                    - if a == b { tr / dim as f64 } else { 0.0 };
                 dev2 += e * e;
             }
         }
@@ -83,7 +93,12 @@ impl Elasticity {
         for a in 0..dim {
             for b in 0..dim {
                 let e = 0.5 * (strain[a][b] + strain[b][a]);
-                s[a][b] = 2.0 * mu * e + if a == b { (kappa - 2.0 * mu / dim as f64) * tr } else { 0.0 };
+                s[a][b] = 2.0 * mu * e
+                    + if a == b {
+                        (kappa - 2.0 * mu / dim as f64) * tr
+                    } else {
+                        0.0
+                    };
             }
         }
         s
@@ -96,7 +111,11 @@ mod tests {
 
     #[test]
     fn plane_stress_uniaxial_stress_is_e_times_strain() {
-        let el = Elasticity { youngs_modulus: 2.0, poisson_ratio: 0.3, dimensionality: Dimensionality::PlaneStress };
+        let el = Elasticity {
+            youngs_modulus: 2.0,
+            poisson_ratio: 0.3,
+            dimensionality: Dimensionality::PlaneStress,
+        };
         let (ex, ey) = (1e-3, -0.3e-3);
         let s = el.stress(&[[ex, 0.0, 0.0], [0.0, ey, 0.0], [0.0; 3]], 2);
         assert!((s[0][0] - 2.0 * ex).abs() < 1e-15 && s[1][1].abs() < 1e-15);
@@ -104,7 +123,11 @@ mod tests {
 
     #[test]
     fn three_d_uniaxial_stress_is_e_times_strain() {
-        let el = Elasticity { youngs_modulus: 2.0, poisson_ratio: 0.25, dimensionality: Dimensionality::ThreeD };
+        let el = Elasticity {
+            youngs_modulus: 2.0,
+            poisson_ratio: 0.25,
+            dimensionality: Dimensionality::ThreeD,
+        };
         let (ex, et) = (1e-3, -0.25e-3);
         let s = el.stress(&[[ex, 0.0, 0.0], [0.0, et, 0.0], [0.0, 0.0, et]], 3);
         assert!((s[0][0] - 2.0 * ex).abs() < 1e-15 && s[1][1].abs() < 1e-15);

@@ -54,7 +54,14 @@ impl Lps {
     /// - plane strain (not in seed 002; derived the same way from W = κ/2 (tr ε)² + μ ε_d:ε_d
     ///   with κ = λ + μ): θ = (2/m)Σ…, t = (2κ/m)θω|ξ| + (8μ/m)ω e^d, e^d = e − θ|ξ|/2,
     ///   W = (κ/2)θ² + (4μ/m)Σ ω (e^d)² w.
-    pub fn new(elasticity: Elasticity, influence: Influence, horizon: f64, s0: f64, rho: f64, thickness: f64) -> Self {
+    pub fn new(
+        elasticity: Elasticity,
+        influence: Influence,
+        horizon: f64,
+        s0: f64,
+        rho: f64,
+        thickness: f64,
+    ) -> Self {
         let (k, mu) = (elasticity.bulk(), elasticity.shear());
         let (theta_factor, a_vol, b_dev, c_iso, energy_vol) = match elasticity.dimensionality {
             Dimensionality::ThreeD => (3.0, 3.0 * k, 15.0 * mu, 1.0 / 3.0, k),
@@ -68,7 +75,20 @@ impl Lps {
                 (2.0, 2.0 * kappa, 8.0 * mu, 0.5, kappa)
             }
         };
-        Lps { elasticity, influence, horizon, s0, rho, m: Vec::new(), theta_factor, a_vol, b_dev, c_iso, energy_vol, thickness }
+        Lps {
+            elasticity,
+            influence,
+            horizon,
+            s0,
+            rho,
+            m: Vec::new(),
+            theta_factor,
+            a_vol,
+            b_dev,
+            c_iso,
+            energy_vol,
+            thickness,
+        }
     }
 
     /// Critical stretch of the bond-based model with the same in-plane bulk modulus κ
@@ -96,7 +116,8 @@ impl Lps {
     fn scalar_state(&self, m: f64, theta: f64, b: &BondGeom) -> f64 {
         let w = self.omega(b.ref_len);
         let e = b.len - b.ref_len;
-        (self.a_vol * theta * w * b.ref_len + self.b_dev * w * (e - self.c_iso * theta * b.ref_len)) / m
+        (self.a_vol * theta * w * b.ref_len + self.b_dev * w * (e - self.c_iso * theta * b.ref_len))
+            / m
     }
 }
 
@@ -127,7 +148,13 @@ impl<const D: usize> Material<D> for Lps {
     #[inline(always)]
     fn finish_point(&self, i: usize, acc: LpsPoint) -> LpsPoint {
         let m = self.m[i];
-        LpsPoint { theta: if m > 0.0 { self.theta_factor * acc.theta / m } else { 0.0 } }
+        LpsPoint {
+            theta: if m > 0.0 {
+                self.theta_factor * acc.theta / m
+            } else {
+                0.0
+            },
+        }
     }
 
     /// Seed 002, Eqs. (4)–(5); the engine pairs it with t_j⟨−ξ⟩ as in Eq. (1).
@@ -155,8 +182,13 @@ impl<const D: usize> Material<D> for Lps {
     fn bond_stiffness(&self, ref_len: f64) -> f64 {
         let m = self.elasticity.p_wave_modulus();
         let c = match self.elasticity.dimensionality {
-            Dimensionality::ThreeD => 18.0 * (m / 1.8) / (std::f64::consts::PI * self.horizon.powi(4)),
-            _ => 12.0 * (2.0 * m / 3.0) / (std::f64::consts::PI * self.horizon.powi(3) * self.thickness),
+            Dimensionality::ThreeD => {
+                18.0 * (m / 1.8) / (std::f64::consts::PI * self.horizon.powi(4))
+            }
+            _ => {
+                12.0 * (2.0 * m / 3.0)
+                    / (std::f64::consts::PI * self.horizon.powi(3) * self.thickness)
+            }
         };
         c / ref_len
     }

@@ -75,9 +75,31 @@ pub trait Material<const D: usize>: Sync + Send {
     /// Scalar pair force density of bond i→j (see the trait docs for the convention):
     /// t_i⟨ξ⟩ φ_ij + t_j⟨−ξ⟩ φ_ji, the discrete form of T[x]⟨ξ⟩ − T[x']⟨−ξ⟩.
     #[inline(always)]
-    fn pair_force(&self, i: usize, j: usize, bond: &BondGeom, pi: &Self::Point, pj: &Self::Point) -> f64 {
+    fn pair_force(
+        &self,
+        i: usize,
+        j: usize,
+        bond: &BondGeom,
+        pi: &Self::Point,
+        pj: &Self::Point,
+    ) -> f64 {
         let _ = (i, j);
         self.force_state(i, bond, pi) * bond.phi_ij + self.force_state(j, bond, pj) * bond.phi_ji
+    }
+
+    /// `pair_force / |ξ+η|`, the factor the engine multiplies the deformed bond vector by.
+    /// Models override it when they can fold the division into one (the loop is bound by
+    /// the divider).
+    #[inline(always)]
+    fn pair_force_per_length(
+        &self,
+        i: usize,
+        j: usize,
+        bond: &BondGeom,
+        pi: &Self::Point,
+        pj: &Self::Point,
+    ) -> f64 {
+        self.pair_force(i, j, bond, pi, pj) / bond.len
     }
 
     /// Energy contribution of an intact bond of node i (before the point-level finish).

@@ -53,16 +53,32 @@ impl Pmb {
     /// Micromodulus c0 (paper units) matching the classical energy of an isotropic expansion:
     /// 3D c0 = 9K/(2π M3), 2D c0 = 4κ/(π M2). For the constant profile these are seed 001,
     /// Eq. (6): 12E/(πδ⁴), 9E/(πδ³) (plane stress), 48E/(5πδ³) (plane strain).
-    pub fn micromodulus(e: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64) -> f64 {
-        let el = Elasticity { youngs_modulus: e, poisson_ratio: bond_based_poisson_ratio(dim), dimensionality: dim };
+    pub fn micromodulus(
+        e: f64,
+        dim: Dimensionality,
+        profile: MicromodulusProfile,
+        horizon: f64,
+    ) -> f64 {
+        let el = Elasticity {
+            youngs_modulus: e,
+            poisson_ratio: bond_based_poisson_ratio(dim),
+            dimensionality: dim,
+        };
         match dim {
-            Dimensionality::ThreeD => 9.0 * el.bulk() / (2.0 * std::f64::consts::PI * profile.moment(3, horizon)),
+            Dimensionality::ThreeD => {
+                9.0 * el.bulk() / (2.0 * std::f64::consts::PI * profile.moment(3, horizon))
+            }
             _ => 4.0 * el.in_plane_bulk() / (std::f64::consts::PI * profile.moment(2, horizon)),
         }
     }
 
     /// Young's modulus represented by a given micromodulus (inverse of `micromodulus`).
-    pub fn youngs_modulus_of(c0: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64) -> f64 {
+    pub fn youngs_modulus_of(
+        c0: f64,
+        dim: Dimensionality,
+        profile: MicromodulusProfile,
+        horizon: f64,
+    ) -> f64 {
         c0 / Self::micromodulus(1.0, dim, profile, horizon)
     }
 
@@ -70,24 +86,48 @@ impl Pmb {
     /// plane equals G0 (seed 001, Eqs. 7–8, with the corrected limit acos(z/ξ)). It reduces to
     /// G0 = (π/2) c0 s0² M4 in 3D and G0 = c0 s0² M3 in 2D, i.e. for the constant profile
     /// s0 = sqrt(5G0/(6Eδ)), sqrt(4πG0/(9Eδ)) and sqrt(5πG0/(12Eδ)).
-    pub fn critical_stretch_from_g0(g0: f64, c0: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64) -> f64 {
+    pub fn critical_stretch_from_g0(
+        g0: f64,
+        c0: f64,
+        dim: Dimensionality,
+        profile: MicromodulusProfile,
+        horizon: f64,
+    ) -> f64 {
         match dim {
-            Dimensionality::ThreeD => (2.0 * g0 / (std::f64::consts::PI * c0 * profile.moment(4, horizon))).sqrt(),
+            Dimensionality::ThreeD => {
+                (2.0 * g0 / (std::f64::consts::PI * c0 * profile.moment(4, horizon))).sqrt()
+            }
             _ => (g0 / (c0 * profile.moment(3, horizon))).sqrt(),
         }
     }
 
     /// Builds a PMB material. `c0_paper` is per unit thickness in 2D; `thickness` is 1 in 3D.
-    pub fn new(c0_paper: f64, s0: f64, rho: f64, dim: Dimensionality, profile: MicromodulusProfile, horizon: f64, thickness: f64) -> Self {
+    pub fn new(
+        c0_paper: f64,
+        s0: f64,
+        rho: f64,
+        dim: Dimensionality,
+        profile: MicromodulusProfile,
+        horizon: f64,
+        thickness: f64,
+    ) -> Self {
         let e = Self::youngs_modulus_of(c0_paper, dim, profile, horizon);
         Pmb {
-            c0: if dim == Dimensionality::ThreeD { c0_paper } else { c0_paper / thickness },
+            c0: if dim == Dimensionality::ThreeD {
+                c0_paper
+            } else {
+                c0_paper / thickness
+            },
             c0_paper,
             profile,
             horizon,
             s0,
             rho,
-            elasticity: Elasticity { youngs_modulus: e, poisson_ratio: bond_based_poisson_ratio(dim), dimensionality: dim },
+            elasticity: Elasticity {
+                youngs_modulus: e,
+                poisson_ratio: bond_based_poisson_ratio(dim),
+                dimensionality: dim,
+            },
         }
     }
 
@@ -110,6 +150,12 @@ impl<const D: usize> Material<D> for Pmb {
     #[inline(always)]
     fn pair_force(&self, _i: usize, _j: usize, b: &BondGeom, _: &(), _: &()) -> f64 {
         self.c(b.ref_len) * b.stretch() * 0.5 * (b.phi_ij + b.phi_ji)
+    }
+
+    /// c s φ̄ / |ξ+η| = c φ̄ (|ξ+η| − |ξ|) / (|ξ| |ξ+η|): one division instead of two.
+    #[inline(always)]
+    fn pair_force_per_length(&self, _i: usize, _j: usize, b: &BondGeom, _: &(), _: &()) -> f64 {
+        self.c(b.ref_len) * 0.5 * (b.phi_ij + b.phi_ji) * (b.len - b.ref_len) / (b.ref_len * b.len)
     }
 
     /// Half the pair force goes to each end's force state.
@@ -152,25 +198,64 @@ mod tests {
         let (e, g0, d) = (192e9, 83e3, 3e-3);
         let c = Pmb::micromodulus(e, Dimensionality::ThreeD, MicromodulusProfile::Constant, d);
         assert!((c / (12.0 * e / (PI * d.powi(4))) - 1.0).abs() < 1e-14);
-        let c = Pmb::micromodulus(e, Dimensionality::PlaneStress, MicromodulusProfile::Constant, d);
+        let c = Pmb::micromodulus(
+            e,
+            Dimensionality::PlaneStress,
+            MicromodulusProfile::Constant,
+            d,
+        );
         assert!((c / (9.0 * e / (PI * d.powi(3))) - 1.0).abs() < 1e-14);
-        let s0 = Pmb::critical_stretch_from_g0(g0, c, Dimensionality::PlaneStress, MicromodulusProfile::Constant, d);
+        let s0 = Pmb::critical_stretch_from_g0(
+            g0,
+            c,
+            Dimensionality::PlaneStress,
+            MicromodulusProfile::Constant,
+            d,
+        );
         assert!((s0 / (4.0 * PI * g0 / (9.0 * e * d)).sqrt() - 1.0).abs() < 1e-14);
-        let c = Pmb::micromodulus(e, Dimensionality::PlaneStrain, MicromodulusProfile::Constant, d);
+        let c = Pmb::micromodulus(
+            e,
+            Dimensionality::PlaneStrain,
+            MicromodulusProfile::Constant,
+            d,
+        );
         assert!((c / (48.0 * e / (5.0 * PI * d.powi(3))) - 1.0).abs() < 1e-14);
-        let s0 = Pmb::critical_stretch_from_g0(g0, c, Dimensionality::PlaneStrain, MicromodulusProfile::Constant, d);
+        let s0 = Pmb::critical_stretch_from_g0(
+            g0,
+            c,
+            Dimensionality::PlaneStrain,
+            MicromodulusProfile::Constant,
+            d,
+        );
         assert!((s0 / (5.0 * PI * g0 / (12.0 * e * d)).sqrt() - 1.0).abs() < 1e-14);
         let c = Pmb::micromodulus(e, Dimensionality::ThreeD, MicromodulusProfile::Constant, d);
-        let s0 = Pmb::critical_stretch_from_g0(g0, c, Dimensionality::ThreeD, MicromodulusProfile::Constant, d);
+        let s0 = Pmb::critical_stretch_from_g0(
+            g0,
+            c,
+            Dimensionality::ThreeD,
+            MicromodulusProfile::Constant,
+            d,
+        );
         assert!((s0 / (5.0 * g0 / (6.0 * e * d)).sqrt() - 1.0).abs() < 1e-14);
     }
 
     #[test]
     fn seed000_pmma_table_values() {
         // Seed 000 notes, §2.3 table: E = 3.24 GPa, G0 = 200 J/m², δ = 0.2 mm → c = 1.160e21, s0 = 0.02076.
-        let c = Pmb::micromodulus(3.24e9, Dimensionality::PlaneStress, MicromodulusProfile::Constant, 0.2e-3);
+        let c = Pmb::micromodulus(
+            3.24e9,
+            Dimensionality::PlaneStress,
+            MicromodulusProfile::Constant,
+            0.2e-3,
+        );
         assert!((c / 1.160e21 - 1.0).abs() < 1e-3);
-        let s0 = Pmb::critical_stretch_from_g0(200.0, c, Dimensionality::PlaneStress, MicromodulusProfile::Constant, 0.2e-3);
+        let s0 = Pmb::critical_stretch_from_g0(
+            200.0,
+            c,
+            Dimensionality::PlaneStress,
+            MicromodulusProfile::Constant,
+            0.2e-3,
+        );
         assert!((s0 / 0.02076 - 1.0).abs() < 1e-3);
     }
 }

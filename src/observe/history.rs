@@ -15,16 +15,29 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 
 impl History {
     pub fn new<const D: usize>(path: &Path, every: u64, set_names: &[(String, Vec<u32>)]) -> Self {
-        let mut header: Vec<String> = ["time", "step", "kinetic_energy", "strain_energy", "external_work", "viscous_dissipation", "energy_balance", "broken_bonds"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
+        let mut header: Vec<String> = [
+            "time",
+            "step",
+            "kinetic_energy",
+            "strain_energy",
+            "external_work",
+            "viscous_dissipation",
+            "energy_balance",
+            "broken_bonds",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
         for (name, _) in set_names {
             for axis in AXES.iter().take(D) {
                 header.push(format!("reaction_{name}_{axis}"));
             }
         }
-        History { csv: CsvHistory::new(path, header), every: Every(every), sets: set_names.iter().map(|(_, n)| n.clone()).collect() }
+        History {
+            csv: CsvHistory::new(path, header),
+            every: Every(every),
+            sets: set_names.iter().map(|(_, n)| n.clone()).collect(),
+        }
     }
 }
 
@@ -39,7 +52,16 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for History {
         let (w, dv) = (sim.state.external_work, sim.state.dissipated_viscous);
         // Energy balance: E_kin + E_strain + D_viscous − W_ext, constant (≈ 0) for an elastic run;
         // its growth is the energy dissipated by breaking bonds.
-        let mut row = vec![sim.state.time, sim.state.step as f64, ek, es, w, dv, ek + es + dv - w, (sim.state.broken / 2) as f64];
+        let mut row = vec![
+            sim.state.time,
+            sim.state.step as f64,
+            ek,
+            es,
+            w,
+            dv,
+            ek + es + dv - w,
+            (sim.state.broken / 2) as f64,
+        ];
         for nodes in &self.sets {
             let r = sim.reaction(nodes);
             row.extend(r.iter());

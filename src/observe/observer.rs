@@ -16,19 +16,36 @@ pub struct StepView<'a, const D: usize, M: Material<D>> {
 
 impl<'a, const D: usize, M: Material<D>> StepView<'a, D, M> {
     pub fn new(sim: &'a Simulation<D, M>, last: bool) -> Self {
-        StepView { sim, last, damage: OnceCell::new(), energy: OnceCell::new() }
+        StepView {
+            sim,
+            last,
+            damage: OnceCell::new(),
+            energy: OnceCell::new(),
+        }
     }
     /// Damage index per node.
     pub fn damage(&self) -> &[f64] {
-        self.damage.get_or_init(|| self.sim.engine.damage(&self.sim.body, &self.sim.bonds, &self.sim.state))
+        self.damage.get_or_init(|| {
+            self.sim
+                .engine
+                .damage(&self.sim.body, &self.sim.bonds, &self.sim.state)
+        })
     }
     /// Strain energy density per node (J/m³).
     pub fn energy_density(&self) -> &[f64] {
-        self.energy.get_or_init(|| self.sim.engine.energy_density(&self.sim.body, &self.sim.bonds, &self.sim.state))
+        self.energy.get_or_init(|| {
+            self.sim
+                .engine
+                .energy_density(&self.sim.body, &self.sim.bonds, &self.sim.state)
+        })
     }
     /// Total strain energy (J).
     pub fn strain_energy(&self) -> f64 {
-        self.energy_density().iter().zip(&self.sim.body.volumes).map(|(w, v)| w * v).sum()
+        self.energy_density()
+            .iter()
+            .zip(&self.sim.body.volumes)
+            .map(|(w, v)| w * v)
+            .sum()
     }
 }
 

@@ -17,10 +17,21 @@ impl Progress {
     pub fn new(total: u64, quiet: bool) -> Self {
         let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
             let b = ProgressBar::new(total);
-            b.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps, ETA {eta} {msg}").expect("valid template").progress_chars("=> "));
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:40}] {pos}/{len} steps, ETA {eta} {msg}",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
             b
         });
-        Progress { bar, total, next_line: if quiet { u64::MAX } else { total / 10 }, started: Instant::now() }
+        Progress {
+            bar,
+            total,
+            next_line: if quiet { u64::MAX } else { total / 10 },
+            started: Instant::now(),
+        }
     }
 }
 
@@ -40,7 +51,11 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Progress {
             }
         } else if step >= self.next_line && self.next_line != u64::MAX {
             let elapsed = self.started.elapsed().as_secs_f64();
-            let eta = if step > 0 { elapsed * (self.total - step.min(self.total)) as f64 / step as f64 } else { 0.0 };
+            let eta = if step > 0 {
+                elapsed * (self.total - step.min(self.total)) as f64 / step as f64
+            } else {
+                0.0
+            };
             eprintln!("step {step}/{} ({:.0}%), t = {:.4e} s, {broken} bonds broken, elapsed {elapsed:.1} s, ETA {eta:.1} s", self.total, 100.0 * step as f64 / self.total as f64, view.sim.state.time);
             self.next_line = step + (self.total / 10).max(1);
         }

@@ -21,11 +21,19 @@ impl Snapshots {
     /// Writes `dir/fields/step_NNNNNNNN.vtu`, the series `dir/fields.pvd` and, in 2D when
     /// `png`, `dir/images/damage_step_NNNNNNNN.png` plus `dir/damage.png` (the latest).
     pub fn new(dir: PathBuf, every: u64, png: bool, title: &str) -> io::Result<Self> {
-        std::fs::create_dir_all(dir.join("fields")).map_err(|e| with_path(e, &dir.join("fields")))?;
+        std::fs::create_dir_all(dir.join("fields"))
+            .map_err(|e| with_path(e, &dir.join("fields")))?;
         if png {
-            std::fs::create_dir_all(dir.join("images")).map_err(|e| with_path(e, &dir.join("images")))?;
+            std::fs::create_dir_all(dir.join("images"))
+                .map_err(|e| with_path(e, &dir.join("images")))?;
         }
-        Ok(Snapshots { series: PvdSeries::new(dir.join("fields.pvd")), dir, every: Every(every), png, title: title.to_string() })
+        Ok(Snapshots {
+            series: PvdSeries::new(dir.join("fields.pvd")),
+            dir,
+            every: Every(every),
+            png,
+            title: title.to_string(),
+        })
     }
 }
 
@@ -42,7 +50,11 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
         let sim = view.sim;
         let step = sim.state.step;
         let points: Vec<[f64; 3]> = sim.body.positions.iter().map(to3).collect();
-        let flat = |v: &[crate::math::Vector<D>]| v.iter().flat_map(|x| x.iter().cloned().collect::<Vec<_>>()).collect::<Vec<f64>>();
+        let flat = |v: &[crate::math::Vector<D>]| {
+            v.iter()
+                .flat_map(|x| x.iter().cloned().collect::<Vec<_>>())
+                .collect::<Vec<f64>>()
+        };
         let (u, v) = (flat(&sim.state.u), flat(&sim.state.v));
         let blocks: Vec<i32> = sim.body.blocks.iter().map(|&b| b as i32).collect();
         let name = format!("step_{step:08}.vtu");
@@ -50,21 +62,57 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
             &self.dir.join("fields").join(&name),
             &points,
             &[
-                Field { name: "displacement", data: FieldData::Vector { data: &u, components: D } },
-                Field { name: "velocity", data: FieldData::Vector { data: &v, components: D } },
-                Field { name: "damage", data: FieldData::Scalar(view.damage()) },
-                Field { name: "strain_energy_density", data: FieldData::Scalar(view.energy_density()) },
-                Field { name: "block", data: FieldData::Int(&blocks) },
+                Field {
+                    name: "displacement",
+                    data: FieldData::Vector {
+                        data: &u,
+                        components: D,
+                    },
+                },
+                Field {
+                    name: "velocity",
+                    data: FieldData::Vector {
+                        data: &v,
+                        components: D,
+                    },
+                },
+                Field {
+                    name: "damage",
+                    data: FieldData::Scalar(view.damage()),
+                },
+                Field {
+                    name: "strain_energy_density",
+                    data: FieldData::Scalar(view.energy_density()),
+                },
+                Field {
+                    name: "block",
+                    data: FieldData::Int(&blocks),
+                },
             ],
         )?;
         self.series.add(sim.state.time, &format!("fields/{name}"))?;
         if D == 2 && self.png {
             let xy: Vec<[f64; 2]> = sim.body.positions.iter().map(|p| [p[0], p[1]]).collect();
-            let title = format!("{} — damage at t = {:.3} µs (step {step})", self.title, sim.state.time * 1e6);
-            let style = MapStyle { title: &title, label: "damage (-)", vmin: 0.0, vmax: 1.0, width_px: 1200 };
-            let path = self.dir.join("images").join(format!("damage_step_{step:08}.png"));
-            write_scalar_map_png(&path, &xy, &sim.body.cell_sizes, view.damage(), &style).map_err(|e| io::Error::other(e.to_string()))?;
-            std::fs::copy(&path, self.dir.join("damage.png")).map_err(|e| with_path(e, &self.dir.join("damage.png")))?;
+            let title = format!(
+                "{} — damage at t = {:.3} µs (step {step})",
+                self.title,
+                sim.state.time * 1e6
+            );
+            let style = MapStyle {
+                title: &title,
+                label: "damage (-)",
+                vmin: 0.0,
+                vmax: 1.0,
+                width_px: 1200,
+            };
+            let path = self
+                .dir
+                .join("images")
+                .join(format!("damage_step_{step:08}.png"));
+            write_scalar_map_png(&path, &xy, &sim.body.cell_sizes, view.damage(), &style)
+                .map_err(|e| io::Error::other(e.to_string()))?;
+            std::fs::copy(&path, self.dir.join("damage.png"))
+                .map_err(|e| with_path(e, &self.dir.join("damage.png")))?;
         }
         Ok(())
     }

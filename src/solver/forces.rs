@@ -5,6 +5,7 @@
 //! order, so results are bitwise identical for any number of threads.
 
 use crate::body::Body;
+use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::material::{BondGeom, Material};
 use crate::math::Vector;
@@ -24,16 +25,47 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     chunks: Vec<Range<usize>>,
 }
 
-/// Geometry of bond i→j of reference length `ref_len` and current length `len`.
-#[inline(always)]
-fn bond_geom(quad: &Quadrature, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
-    let nj = &quad.nodes[j];
-    let ni = &quad.nodes[i];
-    BondGeom { ref_len, len, phi_ij: quad.phi(ref_len, ni.horizon, j), phi_ji: quad.phi(ref_len, nj.horizon, i), vol_j: nj.volume }
+/// Where the bond loop gets quadrature weights: per node in general, from constants on a
+/// uniform grid (one monomorphised loop each, written once).
+trait Weights: Sync {
+    /// Geometry of bond i→j of reference length `ref_len` and current length `len`.
+    fn geom(&self, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom;
+}
+
+impl Weights for Quadrature {
+    #[inline(always)]
+    fn geom(&self, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
+        let nj = &self.nodes[j];
+        let ni = &self.nodes[i];
+        BondGeom {
+            ref_len,
+            len,
+            phi_ij: self.phi(ref_len, ni.horizon, j),
+            phi_ji: self.phi(ref_len, nj.horizon, i),
+            vol_j: nj.volume,
+        }
+    }
+}
+
+impl Weights for UniformWeights {
+    #[inline(always)]
+    fn geom(&self, _i: usize, _j: usize, ref_len: f64, len: f64) -> BondGeom {
+        let phi = self.phi(ref_len);
+        BondGeom {
+            ref_len,
+            len,
+            phi_ij: phi,
+            phi_ji: phi,
+            vol_j: self.node.volume,
+        }
+    }
 }
 
 /// Splits `data` into consecutive mutable pieces ending at each of `ends`.
-fn split_at_ends<'a, T>(mut data: &'a mut [T], ends: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
+fn split_at_ends<'a, T>(
+    mut data: &'a mut [T],
+    ends: impl Iterator<Item = usize>,
+) -> Vec<&'a mut [T]> {
     let mut out = Vec::new();
     let mut start = 0;
     for end in ends {
@@ -50,13 +82,21 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let quad = Quadrature::new(rule, &body.volumes, &body.cell_sizes, &body.horizons);
         material.setup(body, bonds, &quad);
         let n = body.len();
-        let chunks = (0..n).step_by(NODE_CHUNK).map(|s| s..(s + NODE_CHUNK).min(n)).collect();
-        ForceEngine { material, quad, points: vec![M::Point::default(); n], chunks }
+        let chunks = (0..n)
+            .step_by(NODE_CHUNK)
+            .map(|s| s..(s + NODE_CHUNK).min(n))
+            .collect();
+        ForceEngine {
+            material,
+            quad,
+            points: vec![M::Point::default(); n],
+            chunks,
+        }
     }
 
     #[inline(always)]
     fn geom(&self, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
-        bond_geom(&self.quad, i, j, ref_len, len)
+        self.quad.geom(i, j, ref_len, len)
     }
 
     /// Evaluates failure and internal force densities into `state.force`; returns the number
@@ -65,12 +105,34 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     /// Failure is decided in the first sweep over the bonds of a step, from the bond stretch
     /// alone, which is bitwise the same seen from either end: breakage is symmetric.
     pub fn compute(&mut self, body: &Body<D>, bonds: &Bonds, state: &mut State<D>) -> u64 {
+        // Dispatch once on the weight source: on uniform grids φ depends on |ξ| only and no
+        // per-neighbour node data is read.
+        match self.quad.uniform() {
+            Some(uniform) => self.compute_with(&uniform, body, bonds, state),
+            None => {
+                let quad = self.quad.clone();
+                self.compute_with(&quad, body, bonds, state)
+            }
+        }
+    }
+
+    fn compute_with<W: Weights>(
+        &mut self,
+        weights: &W,
+        body: &Body<D>,
+        bonds: &Bonds,
+        state: &mut State<D>,
+    ) -> u64 {
         let s0 = self.material.critical_stretch();
+        let no_fail = &body.no_fail;
         let mut newly_broken = 0u64;
 
         if M::NEEDS_PREPASS {
-            let (material, quad, chunks) = (&self.material, &self.quad, &self.chunks);
-            let status_chunks = split_at_ends(&mut state.status, chunks.iter().map(|c| bonds.offsets[c.end]));
+            let (material, chunks) = (&self.material, &self.chunks);
+            let status_chunks = split_at_ends(
+                &mut state.status,
+                chunks.iter().map(|c| bonds.offsets[c.end]),
+            );
             let point_chunks = split_at_ends(&mut self.points, chunks.iter().map(|c| c.end));
             let current = &state.current;
             newly_broken += chunks
@@ -82,20 +144,24 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let mut broke = 0u64;
                     for (k, i) in nodes.clone().enumerate() {
                         let yi = current[i];
+                        let r = bonds.family(i);
                         let mut acc = M::Point::default();
-                        for b in bonds.family(i) {
-                            if status[b - base] != INTACT {
+                        let family = bonds.neighbors[r.clone()]
+                            .iter()
+                            .zip(&bonds.ref_lengths[r.clone()])
+                            .zip(&mut status[r.start - base..r.end - base]);
+                        for ((&j, &ref_len), st) in family {
+                            if *st != INTACT {
                                 continue;
                             }
-                            let j = bonds.neighbors[b] as usize;
-                            let ref_len = bonds.ref_lengths[b];
+                            let j = j as usize;
                             let len = (current[j] - yi).norm();
-                            if (len - ref_len) > s0 * ref_len && !(body.no_fail[i] || body.no_fail[j]) {
-                                status[b - base] = BROKEN;
+                            if len - ref_len > s0 * ref_len && !(no_fail[i] || no_fail[j]) {
+                                *st = BROKEN;
                                 broke += 1;
                                 continue;
                             }
-                            material.accumulate(&mut acc, &bond_geom(quad, i, j, ref_len, len));
+                            material.accumulate(&mut acc, &weights.geom(i, j, ref_len, len));
                         }
                         points[k] = material.finish_point(i, acc);
                     }
@@ -104,11 +170,14 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 .sum::<u64>();
         }
 
-        let status_chunks = split_at_ends(&mut state.status, self.chunks.iter().map(|c| bonds.offsets[c.end]));
+        let status_chunks = split_at_ends(
+            &mut state.status,
+            self.chunks.iter().map(|c| bonds.offsets[c.end]),
+        );
         let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
-        let this = &*self;
+        let (material, points) = (&self.material, &self.points);
         let current = &state.current;
-        newly_broken += this
+        newly_broken += self
             .chunks
             .par_iter()
             .zip(status_chunks)
@@ -118,25 +187,33 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 let mut broke = 0u64;
                 for (k, i) in nodes.clone().enumerate() {
                     let yi = current[i];
-                    let pi = &this.points[i];
+                    let pi = &points[i];
+                    let r = bonds.family(i);
                     let mut f = Vector::<D>::zeros();
-                    for b in bonds.family(i) {
-                        if status[b - base] != INTACT {
+                    let family = bonds.neighbors[r.clone()]
+                        .iter()
+                        .zip(&bonds.ref_lengths[r.clone()])
+                        .zip(&mut status[r.start - base..r.end - base]);
+                    for ((&j, &ref_len), st) in family {
+                        if *st != INTACT {
                             continue;
                         }
-                        let j = bonds.neighbors[b] as usize;
-                        let ref_len = bonds.ref_lengths[b];
+                        let j = j as usize;
                         let y = current[j] - yi;
                         let len = y.norm();
-                        if !M::NEEDS_PREPASS && (len - ref_len) > s0 * ref_len && !(body.no_fail[i] || body.no_fail[j]) {
-                            status[b - base] = BROKEN;
+                        if !M::NEEDS_PREPASS
+                            && len - ref_len > s0 * ref_len
+                            && !(no_fail[i] || no_fail[j])
+                        {
+                            *st = BROKEN;
                             broke += 1;
                             continue;
                         }
                         if len > 0.0 {
-                            let g = this.geom(i, j, ref_len, len);
-                            let t = this.material.pair_force(i, j, &g, pi, &this.points[j]);
-                            f += y * (t * g.vol_j / len);
+                            let g = weights.geom(i, j, ref_len, len);
+                            f += y
+                                * (material.pair_force_per_length(i, j, &g, pi, &points[j])
+                                    * g.vol_j);
                         }
                     }
                     forces[k] = f;
@@ -162,7 +239,11 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     }
                     let j = bonds.neighbors[b] as usize;
                     let len = (state.current[j] - state.current[i]).norm();
-                    sum += self.material.bond_energy(i, &self.geom(i, j, bonds.ref_lengths[b], len), pi);
+                    sum += self.material.bond_energy(
+                        i,
+                        &self.geom(i, j, bonds.ref_lengths[b], len),
+                        pi,
+                    );
                 }
                 self.material.point_energy(i, pi, sum)
             })
@@ -171,7 +252,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
 
     /// Peridynamic stress of node i, σ_i = Σ_j t_i⟨ξ⟩ (M ⊗ ξ) φ_ij V_j (Silling et al. 2007:
     /// the stress of a homogeneous deformation is ∫ T⟨ξ⟩ ⊗ ξ dV). Row a, column b: M_a ξ_b.
-    pub fn stress(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>, i: usize) -> [[f64; D]; D] {
+    pub fn stress(
+        &self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        state: &State<D>,
+        i: usize,
+    ) -> [[f64; D]; D] {
         let mut sigma = [[0.0; D]; D];
         let pi = &self.points[i];
         for b in bonds.family(i) {
@@ -194,7 +281,11 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
 
     /// Total strain energy Σ W_i V_i (J).
     pub fn strain_energy(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>) -> f64 {
-        self.energy_density(body, bonds, state).iter().zip(&body.volumes).map(|(w, v)| w * v).sum()
+        self.energy_density(body, bonds, state)
+            .iter()
+            .zip(&body.volumes)
+            .map(|(w, v)| w * v)
+            .sum()
     }
 
     /// Damage index per node: broken over initial bond volume, d = 1 − Σ μ φ V_j / Σ φ V_j
@@ -206,7 +297,8 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 let (mut broken, mut total) = (0.0, 0.0);
                 for b in bonds.family(i) {
                     let j = bonds.neighbors[b] as usize;
-                    let w = self.quad.phi(bonds.ref_lengths[b], body.horizons[i], j) * body.volumes[j];
+                    let w =
+                        self.quad.phi(bonds.ref_lengths[b], body.horizons[i], j) * body.volumes[j];
                     total += w;
                     if state.status[b] != INTACT {
                         broken += w;
@@ -233,7 +325,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     .map(|b| {
                         let j = bonds.neighbors[b] as usize;
                         let l = bonds.ref_lengths[b];
-                        self.material.bond_stiffness(l) * self.quad.phi(l, body.horizons[i], j) * body.volumes[j]
+                        self.material.bond_stiffness(l)
+                            * self.quad.phi(l, body.horizons[i], j)
+                            * body.volumes[j]
                     })
                     .sum();
                 if k > 0.0 {

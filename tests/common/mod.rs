@@ -11,9 +11,24 @@ use peridyn::material::{Dimensionality, Elasticity, Lps, MicromodulusProfile, Pm
 pub const THICKNESS: f64 = 1e-3;
 
 /// A square (2D) or cube (3D) lattice of `n` cells per side, spacing `dx`, horizon ratio `m`.
-pub fn lattice_body<const D: usize>(n: usize, dx: f64, m: f64, rule: PartialVolume) -> (Body<D>, Bonds) {
+pub fn lattice_body<const D: usize>(
+    n: usize,
+    dx: f64,
+    m: f64,
+    rule: PartialVolume,
+) -> (Body<D>, Bonds) {
     let side = n as f64 * dx;
-    let shape = if D == 3 { Shape::Box { min: [0.0; 3], max: [side; 3] } } else { Shape::Rectangle { min: [0.0; 2], max: [side; 2] } };
+    let shape = if D == 3 {
+        Shape::Box {
+            min: [0.0; 3],
+            max: [side; 3],
+        }
+    } else {
+        Shape::Rectangle {
+            min: [0.0; 2],
+            max: [side; 2],
+        }
+    };
     let cloud = lattice(&shape, D, dx, THICKNESS).unwrap();
     let body = Body::<D>::from_cloud(cloud, m * dx, THICKNESS);
     let bonds = build_bonds(&body, rule, &[]);
@@ -27,16 +42,40 @@ pub fn centre_node<const D: usize>(body: &Body<D>) -> usize {
         c += p;
     }
     c /= body.len() as f64;
-    (0..body.len()).min_by(|&a, &b| (body.positions[a] - c).norm().partial_cmp(&(body.positions[b] - c).norm()).unwrap()).unwrap()
+    (0..body.len())
+        .min_by(|&a, &b| {
+            (body.positions[a] - c)
+                .norm()
+                .partial_cmp(&(body.positions[b] - c).norm())
+                .unwrap()
+        })
+        .unwrap()
 }
 
-pub fn pmb(dim: Dimensionality, e: f64, horizon: f64, profile: MicromodulusProfile, s0: f64) -> Pmb {
+pub fn pmb(
+    dim: Dimensionality,
+    e: f64,
+    horizon: f64,
+    profile: MicromodulusProfile,
+    s0: f64,
+) -> Pmb {
     let c = Pmb::micromodulus(e, dim, profile, horizon);
     Pmb::new(c, s0, 2000.0, dim, profile, horizon, THICKNESS)
 }
 
 pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64, s0: f64) -> Lps {
-    Lps::new(Elasticity { youngs_modulus: e, poisson_ratio: nu, dimensionality: dim }, Influence::Constant, horizon, s0, 2000.0, THICKNESS)
+    Lps::new(
+        Elasticity {
+            youngs_modulus: e,
+            poisson_ratio: nu,
+            dimensionality: dim,
+        },
+        Influence::Constant,
+        horizon,
+        s0,
+        2000.0,
+        THICKNESS,
+    )
 }
 
 /// Strain tensor padded to 3×3 from a D×D array.

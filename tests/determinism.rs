@@ -1,0 +1,228 @@
+//! Verification: results do not depend on the number of threads. The force loops are
+//! gather-style (each node sums its own family in a fixed order) and failure is decided from
+//! the stretch alone, so a run with 1 thread and one with 2 threads must agree bit for bit,
+//! fracture included.
+
+use peridyn::body::Body;
+use peridyn::bonds::search::build_bonds;
+use peridyn::bonds::{PartialVolume, Precrack};
+use peridyn::deck::schema::{Discretization, SolverDeck};
+use peridyn::deck::LoadedDeck;
+use peridyn::discretize::lattice::lattice;
+use peridyn::geometry::Shape;
+use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
+use peridyn::material::lps::Influence;
+use peridyn::material::{Dimensionality, Elasticity, Lps};
+use peridyn::run::{run, RunOptions};
+use peridyn::solver::Simulation;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Every regular file under `dir`, by path relative to it, with its bytes.
+fn files(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let p = entry.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(
+                    p.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&p).unwrap(),
+                );
+            }
+        }
+    }
+    out
+}
+
+/// The quickstart deck, coarsened and shortened so that it runs in a few seconds but still
+/// breaks bonds at the notch.
+fn small_quickstart() -> LoadedDeck {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/quickstart.toml");
+    let mut ld = LoadedDeck::from_file(&path).unwrap();
+    match &mut ld.deck.discretization {
+        Discretization::Lattice { spacing, .. } => *spacing = 0.2e-3,
+        other => panic!("quickstart is expected to use a lattice, found {other:?}"),
+    }
+    match &mut ld.deck.solver {
+        SolverDeck::Explicit {
+            end_time, steps, ..
+        } => {
+            *end_time = Some(30e-6);
+            *steps = None;
+        }
+    }
+    ld.deck.output.png = false;
+    ld.deck.output.snapshots = 4;
+    ld.deck.output.history_interval = 5;
+    ld
+}
+
+#[test]
+fn quickstart_2d_pmb_is_bitwise_identical_with_1_and_2_threads() {
+    let ld = small_quickstart();
+    let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("determinism-{}", std::process::id()));
+    let mut results = Vec::new();
+    for threads in [1usize, 2] {
+        let out_dir = base.join(format!("threads{threads}"));
+        let _ = std::fs::remove_dir_all(&out_dir);
+        let started = Instant::now();
+        let summary = run(
+            &ld,
+            &RunOptions {
+                out_dir: out_dir.clone(),
+                threads: Some(threads),
+                quiet: true,
+            },
+        )
+        .unwrap();
+        println!(
+            "quickstart (coarsened) with {threads} thread(s): {} nodes, {} steps, {} broken bonds, KE {:.6e} J, SE {:.6e} J, {:.1} s",
+            summary.report.nodes,
+            summary.report.steps,
+            summary.broken_bonds,
+            summary.kinetic_energy,
+            summary.strain_energy,
+            started.elapsed().as_secs_f64()
+        );
+        assert!(
+            summary.broken_bonds > 0,
+            "the shortened quickstart must fracture (no broken bonds with {threads} threads)"
+        );
+        results.push((summary, files(&out_dir)));
+    }
+    let (a, b) = (&results[0], &results[1]);
+    assert_eq!(a.0.broken_bonds, b.0.broken_bonds);
+    assert_eq!(a.0.kinetic_energy.to_bits(), b.0.kinetic_energy.to_bits());
+    assert_eq!(a.0.strain_energy.to_bits(), b.0.strain_energy.to_bits());
+
+    let vtus: Vec<&PathBuf> =
+        a.1.keys()
+            .filter(|p| p.extension().is_some_and(|e| e == "vtu"))
+            .collect();
+    assert!(
+        vtus.len() >= 2,
+        "expected VTU snapshots, found {:?}",
+        a.1.keys().collect::<Vec<_>>()
+    );
+    let mut compared = 0;
+    for (path, bytes) in &a.1 {
+        let name = path.to_string_lossy();
+        // summary.txt holds wall-clock timings; everything else must match byte for byte.
+        if name.ends_with("summary.txt") {
+            continue;
+        }
+        let other =
+            b.1.get(path)
+                .unwrap_or_else(|| panic!("{name} written with 1 thread but not with 2"));
+        assert!(bytes == other, "{name} differs between 1 and 2 threads");
+        compared += 1;
+    }
+    assert_eq!(a.1.len(), b.1.len(), "different sets of output files");
+    assert!(a.1.keys().any(|p| p.ends_with("history.csv")));
+    println!(
+        "compared {compared} files byte for byte ({} VTU snapshots + history.csv + others)",
+        vtus.len()
+    );
+    let _ = std::fs::remove_dir_all(&base);
+}
+
+/// 3D LPS through the API: a pre-cracked bar pulled at both ends until bonds break.
+fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let dx = 1.0e-3;
+        let (nx, ny, nz) = (20usize, 8usize, 8usize);
+        let delta = 3.0 * dx;
+        let (lx, ly, lz) = (nx as f64 * dx, ny as f64 * dx, nz as f64 * dx);
+        let shape = Shape::Box {
+            min: [0.0; 3],
+            max: [lx, ly, lz],
+        };
+        let mut body = Body::<3>::from_cloud(lattice(&shape, 3, dx, 1.0).unwrap(), delta, 1.0);
+        // Half-depth notch across the mid-section x = lx/2.
+        let crack = Precrack::Rectangle {
+            origin: [0.5 * lx, -1.0, -1.0],
+            edge1: [0.0, 1.0 + 0.5 * ly, 0.0],
+            edge2: [0.0, 0.0, lz + 2.0],
+        };
+        let bonds = build_bonds(&body, PartialVolume::Hhb, &[crack]);
+        let left = body.select(&Shape::Box {
+            min: [-1.0; 3],
+            max: [2.0 * dx, 1.0, 1.0],
+        });
+        let right = body.select(&Shape::Box {
+            min: [lx - 2.0 * dx, -1.0, -1.0],
+            max: [1.0; 3],
+        });
+        body.mark_no_fail(&left);
+        body.mark_no_fail(&right);
+        let el = Elasticity {
+            youngs_modulus: 1.0e9,
+            poisson_ratio: 0.3,
+            dimensionality: Dimensionality::ThreeD,
+        };
+        let material = Lps::new(el, Influence::Constant, delta, 2.0e-3, 1000.0, 1.0);
+        let mut loading = Loading::<3>::default();
+        for (nodes, v) in [(left, -2.0), (right, 2.0)] {
+            loading.conditions.push(BoundaryCondition {
+                set: String::new(),
+                nodes,
+                kind: Kinematic::Velocity,
+                component: 0,
+                value: v,
+                time: TimeFunction::Ramp { duration: 2e-6 },
+            });
+        }
+        let mut sim = Simulation::new(
+            body,
+            bonds,
+            material,
+            PartialVolume::Hhb,
+            loading,
+            None,
+            0.8,
+        );
+        for _ in 0..400 {
+            sim.step().unwrap();
+        }
+        sim.check_finite().unwrap();
+        let mut bits = Vec::new();
+        for i in 0..sim.body.len() {
+            for k in 0..3 {
+                bits.extend([
+                    sim.state.u[i][k].to_bits(),
+                    sim.state.v[i][k].to_bits(),
+                    sim.state.force[i][k].to_bits(),
+                ]);
+            }
+        }
+        bits.push(sim.strain_energy().to_bits());
+        bits.push(sim.state.external_work.to_bits());
+        (bits, sim.state.status.clone(), sim.state.broken)
+    })
+}
+
+#[test]
+fn lps_3d_api_is_bitwise_identical_with_1_and_2_threads() {
+    let started = Instant::now();
+    let (u1, s1, b1) = lps_3d_run(1);
+    let t1 = started.elapsed().as_secs_f64();
+    let (u2, s2, b2) = lps_3d_run(2);
+    println!("3D LPS notched bar: {} directed bonds broken (1 thread) / {} (2 threads); {:.1} s + {:.1} s", b1, b2, t1, started.elapsed().as_secs_f64() - t1);
+    assert!(b1 > 0, "the 3D LPS bar must fracture");
+    assert_eq!(b1, b2);
+    assert!(s1 == s2, "bond status differs between 1 and 2 threads");
+    assert!(
+        u1 == u2,
+        "displacement/velocity/force bits differ between 1 and 2 threads"
+    );
+}
