@@ -24,7 +24,7 @@ pub struct BenchResult {
 }
 
 /// A lattice block with about `target_bonds` directed bonds at δ/Δx = 3.
-fn block<const D: usize>(target_bonds: usize) -> (Body<D>, Bonds, f64) {
+fn block<const D: usize>(target_bonds: usize, rule: PartialVolume) -> (Body<D>, Bonds, f64) {
     let dx = 1e-3;
     let per_node = if D == 3 { 122.0 } else { 28.0 };
     let nodes = (target_bonds as f64 / per_node).max(1000.0);
@@ -42,14 +42,13 @@ fn block<const D: usize>(target_bonds: usize) -> (Body<D>, Bonds, f64) {
     };
     let cloud = lattice(&shape, D, dx, 1e-3).expect("benchmark lattice");
     let body = Body::<D>::from_cloud(cloud, 3.0 * dx, 1e-3);
-    let bonds = build_bonds(&body, PartialVolume::Hhb, &[]);
+    let bonds = build_bonds(&body, rule, &[]);
     (body, bonds, 3.0 * dx)
 }
 
 fn measure<const D: usize, M: Material<D>>(
     case: &str,
-    body: Body<D>,
-    bonds: Bonds,
+    (body, bonds, rule): (Body<D>, Bonds, PartialVolume),
     material: M,
     steps: u64,
     threads: usize,
@@ -59,11 +58,7 @@ fn measure<const D: usize, M: Material<D>>(
         .build()
         .expect("thread pool");
     pool.install(|| {
-        let mut sim = Simulation::new(
-            body,
-            bonds,
-            material,
-            PartialVolume::Hhb,
+        let mut sim = Simulation::new(body, bonds, material, rule,
             Loading::default(),
             None,
             0.8,
@@ -141,30 +136,26 @@ pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec
         "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond"
     );
     for &t in &threads {
-        for case in ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d"] {
+        for case in ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d", "pmb-3d-nopv"] {
+            // "-nopv": whole volumes inside δ only (no partial-volume band), the ~122 bonds per
+            // node of δ/Δx = 3 that other codes quote.
+            let rule = if case.ends_with("nopv") { PartialVolume::None } else { PartialVolume::Hhb };
             let r = match case {
                 "pmb-2d" => {
-                    let (b, bo, h) = block::<2>(target_bonds);
-                    measure(
-                        case,
-                        b,
-                        bo,
-                        pmb::<2>(Dimensionality::PlaneStress, h),
-                        steps,
-                        t,
-                    )
+                    let (b, bo, h) = block::<2>(target_bonds, rule);
+                    measure(case, (b, bo, rule), pmb::<2>(Dimensionality::PlaneStress, h), steps, t)
                 }
                 "lps-2d" => {
-                    let (b, bo, h) = block::<2>(target_bonds);
-                    measure(case, b, bo, lps(Dimensionality::PlaneStress, h), steps, t)
+                    let (b, bo, h) = block::<2>(target_bonds, rule);
+                    measure(case, (b, bo, rule), lps(Dimensionality::PlaneStress, h), steps, t)
                 }
-                "pmb-3d" => {
-                    let (b, bo, h) = block::<3>(target_bonds);
-                    measure(case, b, bo, pmb::<3>(Dimensionality::ThreeD, h), steps, t)
+                "lps-3d" => {
+                    let (b, bo, h) = block::<3>(target_bonds, rule);
+                    measure(case, (b, bo, rule), lps(Dimensionality::ThreeD, h), steps, t)
                 }
                 _ => {
-                    let (b, bo, h) = block::<3>(target_bonds);
-                    measure(case, b, bo, lps(Dimensionality::ThreeD, h), steps, t)
+                    let (b, bo, h) = block::<3>(target_bonds, rule);
+                    measure(case, (b, bo, rule), pmb::<3>(Dimensionality::ThreeD, h), steps, t)
                 }
             };
             println!(
