@@ -111,8 +111,9 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
                 .join(format!("damage_step_{step:08}.png"));
             write_scalar_map_png(&path, &xy, &sim.body.cell_sizes, view.damage(), &style)
                 .map_err(|e| io::Error::other(e.to_string()))?;
-            std::fs::copy(&path, self.dir.join("damage.png"))
-                .map_err(|e| with_path(e, &self.dir.join("damage.png")))?;
+            // The latest map, also replaced atomically.
+            let bytes = std::fs::read(&path).map_err(|e| with_path(e, &path))?;
+            super::atomic::write_atomic(&self.dir.join("damage.png"), &bytes)?;
         }
         Ok(())
     }
