@@ -18,30 +18,60 @@ use peridyn::solver::Simulation;
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "results/library_api".into()));
+    let out = PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .unwrap_or_else(|| "results/library_api".into()),
+    );
     std::fs::create_dir_all(&out)?;
 
     // Geometry and discretization: a 32 mm × 16 mm plate, Δx = 0.16 mm, δ = 3.5 Δx.
     let (dx, thickness) = (0.16e-3, 0.5e-3);
     let horizon = 3.5 * dx;
-    let plate = Shape::Rectangle { min: [0.0, 0.0], max: [0.032, 0.016] };
+    let plate = Shape::Rectangle {
+        min: [0.0, 0.0],
+        max: [0.032, 0.016],
+    };
     let mut body = Body::<2>::from_cloud(lattice(&plate, 2, dx, thickness)?, horizon, thickness);
-    body.add_node_set("top", &Shape::Rectangle { min: [-1.0, 0.016 - 3.0 * dx], max: [1.0, 1.0] });
-    body.add_node_set("bottom", &Shape::Rectangle { min: [-1.0, -1.0], max: [1.0, 3.0 * dx] });
+    body.add_node_set(
+        "top",
+        &Shape::Rectangle {
+            min: [-1.0, 0.016 - 3.0 * dx],
+            max: [1.0, 1.0],
+        },
+    );
+    body.add_node_set(
+        "bottom",
+        &Shape::Rectangle {
+            min: [-1.0, -1.0],
+            max: [1.0, 3.0 * dx],
+        },
+    );
     for set in ["top", "bottom"] {
         let nodes = body.node_sets[set].clone();
         body.mark_no_fail(&nodes);
     }
 
     // Bonds, with a 3 mm notch at mid-height.
-    let notch = Precrack::Segment { start: [-0.001, 0.008], end: [0.003, 0.008] };
+    let notch = Precrack::Segment {
+        start: [-0.001, 0.008],
+        end: [0.003, 0.008],
+    };
     let bonds = build_bonds(&body, PartialVolume::Hhb, &[notch]);
 
     // PMMA as a plane-stress PMB material calibrated from E and G0 (seed 001, Eqs. 6 and 8).
     let dim = Dimensionality::PlaneStress;
     let c0 = Pmb::micromodulus(3.09e9, dim, MicromodulusProfile::Constant, horizon);
     let s0 = Pmb::critical_stretch_from_g0(300.0, c0, dim, MicromodulusProfile::Constant, horizon);
-    let material = Pmb::new(c0, s0, 1180.0, dim, MicromodulusProfile::Constant, horizon, thickness);
+    let material = Pmb::new(
+        c0,
+        s0,
+        1180.0,
+        dim,
+        MicromodulusProfile::Constant,
+        horizon,
+        thickness,
+    );
 
     // Grips pulled apart at 2.5 m/s, ramped over 1 µs.
     let mut loading = Loading::<2>::default();
@@ -57,12 +87,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
 
     // Velocity Verlet at 0.8 × the Silling–Askari stable step, 40 µs.
-    let mut sim = Simulation::new(body, bonds, material, PartialVolume::Hhb, loading, None, 0.8);
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        PartialVolume::Hhb,
+        loading,
+        None,
+        0.8,
+    );
     let steps = (40e-6 / sim.dt).ceil() as u64;
-    let sets: Vec<(String, Vec<u32>)> = sim.body.node_sets.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    let sets: Vec<(String, Vec<u32>)> = sim
+        .body
+        .node_sets
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
     let mut observers: Vec<Box<dyn Observer<2, Pmb>>> = vec![
         Box::new(History::new::<2>(&out.join("history.csv"), 20, &sets)),
-        Box::new(Snapshots::new(out.clone(), steps / 4, true, "library API example")?),
+        Box::new(Snapshots::new(
+            out.clone(),
+            steps / 4,
+            true,
+            "library API example",
+        )?),
         Box::new(Progress::new(steps, false)),
     ];
     let result = drive(&mut sim, steps, &mut observers);

@@ -58,11 +58,7 @@ fn measure<const D: usize, M: Material<D>>(
         .build()
         .expect("thread pool");
     pool.install(|| {
-        let mut sim = Simulation::new(body, bonds, material, rule,
-            Loading::default(),
-            None,
-            0.8,
-        );
+        let mut sim = Simulation::new(body, bonds, material, rule, Loading::default(), None, 0.8);
         // A small random-free initial velocity field so the loop does real work.
         for (i, v) in sim.state.v.iter_mut().enumerate() {
             v[0] = 1e-3 * ((i % 7) as f64 - 3.0);
@@ -139,23 +135,51 @@ pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec
         for case in ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d", "pmb-3d-nopv"] {
             // "-nopv": whole volumes inside δ only (no partial-volume band), the ~122 bonds per
             // node of δ/Δx = 3 that other codes quote.
-            let rule = if case.ends_with("nopv") { PartialVolume::None } else { PartialVolume::Hhb };
+            let rule = if case.ends_with("nopv") {
+                PartialVolume::None
+            } else {
+                PartialVolume::Hhb
+            };
             let r = match case {
                 "pmb-2d" => {
                     let (b, bo, h) = block::<2>(target_bonds, rule);
-                    measure(case, (b, bo, rule), pmb::<2>(Dimensionality::PlaneStress, h), steps, t)
+                    measure(
+                        case,
+                        (b, bo, rule),
+                        pmb::<2>(Dimensionality::PlaneStress, h),
+                        steps,
+                        t,
+                    )
                 }
                 "lps-2d" => {
                     let (b, bo, h) = block::<2>(target_bonds, rule);
-                    measure(case, (b, bo, rule), lps(Dimensionality::PlaneStress, h), steps, t)
+                    measure(
+                        case,
+                        (b, bo, rule),
+                        lps(Dimensionality::PlaneStress, h),
+                        steps,
+                        t,
+                    )
                 }
                 "lps-3d" => {
                     let (b, bo, h) = block::<3>(target_bonds, rule);
-                    measure(case, (b, bo, rule), lps(Dimensionality::ThreeD, h), steps, t)
+                    measure(
+                        case,
+                        (b, bo, rule),
+                        lps(Dimensionality::ThreeD, h),
+                        steps,
+                        t,
+                    )
                 }
                 _ => {
                     let (b, bo, h) = block::<3>(target_bonds, rule);
-                    measure(case, (b, bo, rule), pmb::<3>(Dimensionality::ThreeD, h), steps, t)
+                    measure(
+                        case,
+                        (b, bo, rule),
+                        pmb::<3>(Dimensionality::ThreeD, h),
+                        steps,
+                        t,
+                    )
                 }
             };
             println!(

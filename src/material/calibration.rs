@@ -70,6 +70,7 @@ impl Elasticity {
     }
     /// Classical strain energy density ½ ε:C:ε of a small strain (D×D, symmetric part used),
     /// under the model's plane condition.
+    #[allow(clippy::needless_range_loop)] // ε_ab and ε_ba are both read
     pub fn energy_density(&self, strain: &[[f64; 3]; 3], dim: usize) -> f64 {
         let mu = self.shear();
         let kappa = self.in_plane_bulk();

@@ -66,6 +66,6 @@ pub struct Every(pub u64);
 
 impl Every {
     pub fn hits(self, step: u64, last: bool) -> bool {
-        last || step == 0 || (self.0 > 0 && step % self.0 == 0)
+        last || step == 0 || (self.0 > 0 && step.is_multiple_of(self.0))
     }
 }

@@ -37,7 +37,7 @@ impl Progress {
 
 impl<const D: usize, M: Material<D>> Observer<D, M> for Progress {
     fn wants(&self, step: u64, last: bool) -> bool {
-        self.bar.is_some() && step % 50 == 0 || last || step >= self.next_line
+        self.bar.is_some() && step.is_multiple_of(50) || last || step >= self.next_line
     }
 
     fn observe(&mut self, view: &StepView<D, M>) -> std::io::Result<()> {

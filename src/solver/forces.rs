@@ -61,11 +61,53 @@ impl Weights for UniformWeights {
     }
 }
 
+/// The family of one node, as the bond loops walk it.
+struct Family<'a> {
+    i: usize,
+    neighbors: &'a [u32],
+    ref_lengths: &'a [f64],
+}
+
+impl Family<'_> {
+    /// Calls `f(j, |ξ|, y_j − y_i, |y_j − y_i|)` for every intact bond. With `failure =
+    /// Some((s0, no_fail))` it first breaks, irreversibly, each bond whose stretch exceeds s0
+    /// unless an end is in a no-fail set; the stretch is bitwise the same from either end, so
+    /// breakage is symmetric. Returns the number of bonds broken.
+    #[inline(always)]
+    fn visit_intact<const D: usize>(
+        &self,
+        current: &[Vector<D>],
+        status: &mut [u8],
+        failure: Option<(f64, &[bool])>,
+        mut f: impl FnMut(usize, f64, Vector<D>, f64),
+    ) -> u64 {
+        let yi = current[self.i];
+        let mut broke = 0;
+        for ((&j, &ref_len), st) in self.neighbors.iter().zip(self.ref_lengths).zip(status) {
+            if *st != INTACT {
+                continue;
+            }
+            let j = j as usize;
+            let y = current[j] - yi;
+            let len = y.norm();
+            if let Some((s0, no_fail)) = failure {
+                if len - ref_len > s0 * ref_len && !(no_fail[self.i] || no_fail[j]) {
+                    *st = BROKEN;
+                    broke += 1;
+                    continue;
+                }
+            }
+            f(j, ref_len, y, len);
+        }
+        broke
+    }
+}
+
 /// Splits `data` into consecutive mutable pieces ending at each of `ends`.
-fn split_at_ends<'a, T>(
-    mut data: &'a mut [T],
+fn split_at_ends<T>(
+    mut data: &mut [T],
     ends: impl Iterator<Item = usize>,
-) -> Vec<&'a mut [T]> {
+) -> Vec<&mut [T]> {
     let mut out = Vec::new();
     let mut start = 0;
     for end in ends {
@@ -124,7 +166,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         state: &mut State<D>,
     ) -> u64 {
         let s0 = self.material.critical_stretch();
-        let no_fail = &body.no_fail;
+        let no_fail: &[bool] = &body.no_fail;
         let mut newly_broken = 0u64;
 
         if M::NEEDS_PREPASS {
@@ -143,26 +185,21 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let base = bonds.offsets[nodes.start];
                     let mut broke = 0u64;
                     for (k, i) in nodes.clone().enumerate() {
-                        let yi = current[i];
                         let r = bonds.family(i);
                         let mut acc = M::Point::default();
-                        let family = bonds.neighbors[r.clone()]
-                            .iter()
-                            .zip(&bonds.ref_lengths[r.clone()])
-                            .zip(&mut status[r.start - base..r.end - base]);
-                        for ((&j, &ref_len), st) in family {
-                            if *st != INTACT {
-                                continue;
-                            }
-                            let j = j as usize;
-                            let len = (current[j] - yi).norm();
-                            if len - ref_len > s0 * ref_len && !(no_fail[i] || no_fail[j]) {
-                                *st = BROKEN;
-                                broke += 1;
-                                continue;
-                            }
-                            material.accumulate(&mut acc, &weights.geom(i, j, ref_len, len));
-                        }
+                        let family = Family {
+                            i,
+                            neighbors: &bonds.neighbors[r.clone()],
+                            ref_lengths: &bonds.ref_lengths[r.clone()],
+                        };
+                        broke += family.visit_intact(
+                            current,
+                            &mut status[r.start - base..r.end - base],
+                            Some((s0, no_fail)),
+                            |j, ref_len, _, len| {
+                                material.accumulate(&mut acc, &weights.geom(i, j, ref_len, len));
+                            },
+                        );
                         points[k] = material.finish_point(i, acc);
                     }
                     broke
@@ -185,37 +222,30 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .map(|((nodes, status), forces)| {
                 let base = bonds.offsets[nodes.start];
                 let mut broke = 0u64;
+                // A two-pass model decided failure in its pre-pass.
+                let failure = (!M::NEEDS_PREPASS).then_some((s0, no_fail));
                 for (k, i) in nodes.clone().enumerate() {
-                    let yi = current[i];
                     let pi = &points[i];
                     let r = bonds.family(i);
                     let mut f = Vector::<D>::zeros();
-                    let family = bonds.neighbors[r.clone()]
-                        .iter()
-                        .zip(&bonds.ref_lengths[r.clone()])
-                        .zip(&mut status[r.start - base..r.end - base]);
-                    for ((&j, &ref_len), st) in family {
-                        if *st != INTACT {
-                            continue;
-                        }
-                        let j = j as usize;
-                        let y = current[j] - yi;
-                        let len = y.norm();
-                        if !M::NEEDS_PREPASS
-                            && len - ref_len > s0 * ref_len
-                            && !(no_fail[i] || no_fail[j])
-                        {
-                            *st = BROKEN;
-                            broke += 1;
-                            continue;
-                        }
-                        if len > 0.0 {
-                            let g = weights.geom(i, j, ref_len, len);
-                            f += y
-                                * (material.pair_force_per_length(i, j, &g, pi, &points[j])
-                                    * g.vol_j);
-                        }
-                    }
+                    let family = Family {
+                        i,
+                        neighbors: &bonds.neighbors[r.clone()],
+                        ref_lengths: &bonds.ref_lengths[r.clone()],
+                    };
+                    broke += family.visit_intact(
+                        current,
+                        &mut status[r.start - base..r.end - base],
+                        failure,
+                        |j, ref_len, y, len| {
+                            if len > 0.0 {
+                                let g = weights.geom(i, j, ref_len, len);
+                                f += y
+                                    * (material.pair_force_per_length(i, j, &g, pi, &points[j])
+                                        * g.vol_j);
+                            }
+                        },
+                    );
                     forces[k] = f;
                 }
                 broke
