@@ -403,7 +403,18 @@ fn write_resolved(
     report: &ModelReport,
     out: &std::path::Path,
 ) -> Result<(), RunError> {
-    let deck = toml::to_string(&ld.deck).map_err(|e| std::io::Error::other(e.to_string()))?;
+    // A point-cloud path is made absolute so the resolved deck runs from the results folder.
+    let mut resolved = ld.deck.clone();
+    if let crate::deck::schema::Discretization::PointCloud { file, .. } =
+        &mut resolved.discretization
+    {
+        let path = ld.base_dir().join(&*file);
+        *file = std::fs::canonicalize(&path)
+            .unwrap_or(path)
+            .display()
+            .to_string();
+    }
+    let deck = toml::to_string(&resolved).map_err(|e| std::io::Error::other(e.to_string()))?;
     #[derive(Serialize)]
     struct Derived<'a> {
         derived: &'a ModelReport,

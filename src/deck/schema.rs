@@ -44,6 +44,10 @@ pub struct Deck {
     pub solver: SolverDeck,
     #[serde(default)]
     pub output: OutputDeck,
+    /// The `[derived]` table peridyn writes into `resolved.toml`; ignored when read, so a
+    /// resolved deck runs again as it is.
+    #[serde(default, skip_serializing)]
+    pub derived: Option<toml::Table>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

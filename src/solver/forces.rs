@@ -104,10 +104,7 @@ impl Family<'_> {
 }
 
 /// Splits `data` into consecutive mutable pieces ending at each of `ends`.
-fn split_at_ends<T>(
-    mut data: &mut [T],
-    ends: impl Iterator<Item = usize>,
-) -> Vec<&mut [T]> {
+fn split_at_ends<T>(mut data: &mut [T], ends: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
     let mut out = Vec::new();
     let mut start = 0;
     for end in ends {

@@ -1,0 +1,149 @@
+//! Good decks: the shipped examples build, point clouds and CSG shapes give the bodies they
+//! describe, traction loads apply their total force, and `resolved.toml` runs again.
+
+use peridyn::deck::build::build_model;
+use peridyn::deck::LoadedDeck;
+use peridyn::run::{check, run, RunOptions};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn shipped_examples_build() {
+    for entry in std::fs::read_dir(root().join("examples")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let ld = LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+            let report = check(&ld, Some(1)).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(
+                report.nodes > 1000 && report.steps > 0 && report.dt <= report.dt_stable,
+                "{}",
+                path.display()
+            );
+        }
+    }
+}
+
+const POINT_CLOUD: &str = r#"
+version = 1
+dimension = 2
+plane = "stress"
+thickness = 2e-3
+[discretization]
+type = "point_cloud"
+file = "data/good_cloud.txt"
+horizon = 0.75e-3
+[material]
+type = "pmb"
+density = 1000.0
+youngs_modulus = 1e9
+[solver]
+type = "explicit"
+steps = 1
+"#;
+
+#[test]
+fn point_cloud_gives_its_nodes_areas_and_cell_sizes() {
+    let ld = LoadedDeck::from_str(POINT_CLOUD, &root().join("tests/decks/deck.toml")).unwrap();
+    let model = build_model::<2>(&ld).unwrap();
+    assert_eq!(model.body.len(), 32);
+    for i in 0..32 {
+        assert!(
+            (model.body.volumes[i] - 6.25e-8 * 2e-3).abs() < 1e-24,
+            "volume = area × thickness"
+        );
+        assert!(
+            (model.body.cell_sizes[i] - 0.25e-3).abs() < 1e-15,
+            "r_j = sqrt(area)"
+        );
+    }
+    assert!((model.spacing - 0.25e-3).abs() < 1e-15);
+}
+
+const PLATE_WITH_HOLE: &str = r#"
+version = 1
+dimension = 2
+plane = "strain"
+thickness = 1e-3
+[discretization]
+type = "lattice"
+shape = { type = "difference", base = { type = "rectangle", min = [0.0, 0.0], max = [0.04, 0.02] }, subtract = [{ type = "disk", center = [0.02, 0.01], radius = 0.005 }] }
+spacing = 0.25e-3
+horizon_ratio = 3.0
+[material]
+type = "lps"
+density = 1000.0
+youngs_modulus = 1e9
+poisson_ratio = 0.3
+[[node_sets]]
+name = "right"
+region = { type = "rectangle", min = [0.039, -1.0], max = [1.0, 1.0] }
+[[loads]]
+type = "traction"
+set = "right"
+value = [2e6, 0.0]
+area = 2e-5
+[solver]
+type = "explicit"
+steps = 3
+[output]
+snapshots = 1
+png = false
+"#;
+
+#[test]
+fn csg_plate_with_hole_has_the_right_area_and_traction_the_right_force() {
+    let ld = LoadedDeck::from_str(PLATE_WITH_HOLE, Path::new("plate.toml")).unwrap();
+    let model = build_model::<2>(&ld).unwrap();
+    let area: f64 = model.body.volumes.iter().sum::<f64>() / 1e-3;
+    let exact = 0.04 * 0.02 - std::f64::consts::PI * 0.005f64.powi(2);
+    assert!(
+        (area / exact - 1.0).abs() < 0.01,
+        "lattice area {area} vs {exact}"
+    );
+    // Traction T over area A: total force T·A spread over the set's volume.
+    let load = &model.loading.loads[0];
+    let force: f64 = load
+        .nodes
+        .iter()
+        .map(|&i| load.density[0] * model.body.volumes[i as usize])
+        .sum();
+    assert!(
+        (force - 2e6 * 2e-5).abs() < 1e-9 * force,
+        "applied force {force} N"
+    );
+}
+
+#[test]
+fn resolved_deck_runs_again_with_the_same_model() {
+    let ld = LoadedDeck::from_str(PLATE_WITH_HOLE, Path::new("plate.toml")).unwrap();
+    let out = std::env::temp_dir().join(format!("peridyn-resolved-{}", std::process::id()));
+    let first = run(
+        &ld,
+        &RunOptions {
+            out_dir: out.clone(),
+            threads: Some(1),
+            quiet: true,
+        },
+    )
+    .unwrap();
+    let resolved =
+        LoadedDeck::from_file(&out.join("resolved.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let again = check(&resolved, Some(1)).unwrap();
+    assert_eq!(again.nodes, first.report.nodes);
+    assert_eq!(again.bonds, first.report.bonds);
+    assert_eq!(again.dt, first.report.dt);
+    let text = std::fs::read_to_string(out.join("resolved.toml")).unwrap();
+    for key in [
+        "[derived]",
+        "critical_stretch",
+        "dt_stable",
+        "horizon_over_spacing",
+        "memory_bytes",
+    ] {
+        assert!(text.contains(key), "resolved.toml lacks {key}");
+    }
+    std::fs::remove_dir_all(&out).ok();
+}
