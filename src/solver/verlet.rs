@@ -39,7 +39,9 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     /// Silling–Askari stable time step estimate (s).
     pub dt_stable: f64,
     pub counters: Counters,
+    /// Constrained (node, component) pairs, and the same as a per-node mask.
     constrained: Vec<(usize, usize)>,
+    constrained_mask: Vec<[bool; 3]>,
 }
 
 impl<const D: usize, M: Material<D>> Simulation<D, M> {
@@ -72,6 +74,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             dt_stable,
             counters: Counters::default(),
             constrained,
+            constrained_mask: mask,
         };
         sim.loading
             .apply_displacements(&sim.body, &mut sim.state, 0.0);
@@ -203,7 +206,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         if start.is_empty() {
             return 0.0;
         }
-        let mask = self.loading.constrained_mask(self.body.len());
+        let mask = &self.constrained_mask;
         let mut w = 0.0;
         for (i, (b0, u0)) in start.iter().enumerate() {
             for k in 0..D {

@@ -1,0 +1,87 @@
+//! A run that goes unstable stops with a diagnosis (step, node, quantity) and keeps every
+//! output written so far.
+
+use peridyn::bonds::PartialVolume;
+use peridyn::loading::Loading;
+use peridyn::material::{Dimensionality, MicromodulusProfile, Pmb};
+use peridyn::observe::history::History;
+use peridyn::observe::snapshots::Snapshots;
+use peridyn::observe::Observer;
+use peridyn::run::{drive, RunError};
+use peridyn::solver::{Simulation, StepError};
+
+#[test]
+fn blow_up_is_diagnosed_and_outputs_survive() {
+    let dx = 1e-3;
+    let shape = peridyn::geometry::Shape::Rectangle {
+        min: [0.0; 2],
+        max: [0.02, 0.02],
+    };
+    let cloud = peridyn::discretize::lattice::lattice(&shape, 2, dx, 1e-3).unwrap();
+    let body = peridyn::body::Body::<2>::from_cloud(cloud, 3.0 * dx, 1e-3);
+    let bonds = peridyn::bonds::search::build_bonds(&body, PartialVolume::Hhb, &[]);
+    let c = Pmb::micromodulus(
+        70e9,
+        Dimensionality::PlaneStress,
+        MicromodulusProfile::Constant,
+        3.0 * dx,
+    );
+    let pmb = Pmb::new(
+        c,
+        f64::INFINITY,
+        2500.0,
+        Dimensionality::PlaneStress,
+        MicromodulusProfile::Constant,
+        3.0 * dx,
+        1e-3,
+    );
+    // Five times the stable step (the deck layer refuses this; the library lets a user try).
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        pmb,
+        PartialVolume::Hhb,
+        Loading::default(),
+        Some(1.0),
+        1.0,
+    );
+    sim.dt = 5.0 * sim.dt_stable;
+    for (i, v) in sim.state.v.iter_mut().enumerate() {
+        v[0] = if i % 2 == 0 { 1.0 } else { -1.0 };
+    }
+    let out = std::env::temp_dir().join(format!("peridyn-unstable-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let mut observers: Vec<Box<dyn Observer<2, Pmb>>> = vec![
+        Box::new(History::new::<2>(&out.join("history.csv"), 10, &[])),
+        Box::new(Snapshots::new(out.clone(), 50, false, "unstable").unwrap()),
+    ];
+    let result = drive(&mut sim, 2000, &mut observers);
+    for o in observers.iter_mut() {
+        o.finish().unwrap();
+    }
+    let err = result.expect_err("a time step 5× the stable one must blow up");
+    match &err {
+        RunError::Step(StepError::Unstable {
+            step,
+            node,
+            quantity,
+            ..
+        }) => {
+            println!("stopped at step {step}, node {node}, {quantity}");
+            assert!(*step > 0 && *step < 2000 && *node < sim.body.len());
+        }
+        other => panic!("expected an instability diagnosis, got {other:?}"),
+    }
+    let msg = err.to_string();
+    assert!(
+        msg.contains("unstable at step") && msg.contains("of node"),
+        "{msg}"
+    );
+    let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    assert!(
+        history.lines().count() > 2,
+        "history rows written before the blow-up are kept"
+    );
+    assert!(out.join("fields").join("step_00000000.vtu").exists());
+    std::fs::remove_dir_all(&out).ok();
+}
