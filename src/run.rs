@@ -3,9 +3,7 @@
 
 use crate::deck::build::{build_material, build_model, explicit_settings, MaterialChoice, Model};
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
-use crate::loading::set_initial_velocity;
 use crate::material::{Elasticity, Material};
-use crate::math::vector_from_slice;
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
 use crate::observe::snapshots::Snapshots;
@@ -221,9 +219,11 @@ pub fn prepare<const D: usize, M: Material<D>>(
                 .into());
         }
     }
-    for (nodes, v) in &initial_velocities {
-        set_initial_velocity(&mut sim.state, nodes, vector_from_slice::<D>(v));
+    for iv in &initial_velocities {
+        iv.apply(&sim.body, &mut sim.state);
     }
+    // Prescribed velocities win over initial ones on constrained components.
+    sim.loading.apply_end_velocities(&mut sim.state, 0.0);
     sim.counters.setup = started.elapsed();
     let steps = settings
         .steps

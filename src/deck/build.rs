@@ -7,9 +7,9 @@ use crate::body::Body;
 use crate::bonds::{search::build_bonds, Bonds, PartialVolume};
 use crate::discretize::{lattice::lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
-use crate::loading::{BoundaryCondition, Load, Loading};
+use crate::loading::{BoundaryCondition, InitialVelocity, Load, Loading};
 use crate::material::{Dimensionality, Elasticity, Lps, Pmb};
-use crate::math::vector_from_slice;
+use crate::math::{vector_from_slice, Vector};
 
 /// The discretized body with its families and loading.
 pub struct Model<const D: usize> {
@@ -23,7 +23,7 @@ pub struct Model<const D: usize> {
     pub spacing: f64,
     pub dimensionality: Dimensionality,
     /// (name, initial velocity) pairs still to apply to the state.
-    pub initial_velocities: Vec<(Vec<u32>, Vec<f64>)>,
+    pub initial_velocities: Vec<InitialVelocity<D>>,
 }
 
 /// The material of a deck, calibrated.
@@ -171,11 +171,19 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     let initial_velocities = deck
         .initial_velocities
         .iter()
-        .map(|iv| {
-            (
-                body.node_set(&iv.set).expect("validated set name"),
-                iv.value.clone(),
-            )
+        .map(|iv| InitialVelocity {
+            nodes: body.node_set(&iv.set).expect("validated set name"),
+            value: vector_from_slice::<D>(&iv.value),
+            gradient: iv
+                .gradient
+                .as_ref()
+                .map_or(nalgebra::SMatrix::zeros(), |g| {
+                    nalgebra::SMatrix::from_fn(|a, b| g[a][b])
+                }),
+            origin: iv
+                .origin
+                .as_ref()
+                .map_or(Vector::zeros(), |o| vector_from_slice::<D>(o)),
         })
         .collect();
     Ok(Model {

@@ -194,12 +194,19 @@ pub enum LoadDeck {
     },
 }
 
-/// Initial velocity (m/s) of a node set (`all` for every node).
+/// Initial velocity field on a node set (`all` for every node):
+/// v(x) = value + gradient · (x − origin), m/s.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialVelocityDeck {
     pub set: String,
     pub value: Vec<f64>,
+    /// ∂v_a/∂x_b (1/s), row a; absent: a uniform velocity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gradient: Option<Vec<Vec<f64>>>,
+    /// Point where v = value (m); default the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<Vec<f64>>,
 }
 
 /// The solver.

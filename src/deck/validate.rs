@@ -310,6 +310,23 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
             out.push(DeckIssue::new(&format!("{p}.set"), unknown_set(&iv.set)));
         }
         vector(&mut out, &format!("{p}.value"), &iv.value, d);
+        if let Some(g) = &iv.gradient {
+            if g.len() != d {
+                out.push(DeckIssue::new(
+                    &format!("{p}.gradient"),
+                    format!(
+                        "expected a {d}×{d} matrix (∂v_a/∂x_b, {d} rows), found {} rows",
+                        g.len()
+                    ),
+                ));
+            }
+            for (r, row) in g.iter().enumerate() {
+                vector(&mut out, &format!("{p}.gradient[{r}]"), row, d);
+            }
+        }
+        if let Some(o) = &iv.origin {
+            vector(&mut out, &format!("{p}.origin"), o, d);
+        }
     }
 
     match &deck.solver {

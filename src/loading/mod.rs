@@ -117,9 +117,21 @@ impl<const D: usize> Loading<D> {
     }
 }
 
-/// Sets an initial velocity on a node set.
-pub fn set_initial_velocity<const D: usize>(state: &mut State<D>, nodes: &[u32], v: Vector<D>) {
-    for &i in nodes {
-        state.v[i as usize] = v;
+/// An initial velocity field on a node set: v(x) = value + gradient · (x − origin).
+#[derive(Debug, Clone)]
+pub struct InitialVelocity<const D: usize> {
+    pub nodes: Vec<u32>,
+    pub value: Vector<D>,
+    pub gradient: nalgebra::SMatrix<f64, D, D>,
+    pub origin: Vector<D>,
+}
+
+impl<const D: usize> InitialVelocity<D> {
+    /// Sets the velocities of the set's nodes.
+    pub fn apply(&self, body: &Body<D>, state: &mut State<D>) {
+        for &i in &self.nodes {
+            let i = i as usize;
+            state.v[i] = self.value + self.gradient * (body.positions[i] - self.origin);
+        }
     }
 }
