@@ -61,11 +61,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // PMMA as a plane-stress PMB material calibrated from E and G0 (seed 001, Eqs. 6 and 8).
     let dim = Dimensionality::PlaneStress;
-    let c0 = Pmb::micromodulus(3.09e9, dim, MicromodulusProfile::Constant, horizon);
-    let s0 = Pmb::critical_stretch_from_g0(300.0, c0, dim, MicromodulusProfile::Constant, horizon);
-    let material = Pmb::new(
-        c0,
-        s0,
+    let material = Pmb::calibrated(
+        3.09e9,
+        Some(300.0),
         1180.0,
         dim,
         MicromodulusProfile::Constant,

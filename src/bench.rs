@@ -30,17 +30,7 @@ fn block<const D: usize>(target_bonds: usize, rule: PartialVolume) -> (Body<D>, 
     let per_node = if D == 3 { 122.0 } else { 28.0 };
     let nodes = (target_bonds as f64 / per_node).max(1000.0);
     let side = nodes.powf(1.0 / D as f64).ceil() * dx;
-    let shape = if D == 3 {
-        Shape::Box {
-            min: [0.0; 3],
-            max: [side; 3],
-        }
-    } else {
-        Shape::Rectangle {
-            min: [0.0; 2],
-            max: [side; 2],
-        }
-    };
+    let shape = Shape::cube(D, side);
     let cloud = lattice(&shape, D, dx, 1e-3).expect("benchmark lattice");
     let body = Body::<D>::from_cloud(cloud, 3.0 * dx, 1e-3);
     let bonds = build_bonds(&body, rule, &[]);
@@ -91,10 +81,9 @@ fn measure<const D: usize, M: Material<D>>(
 }
 
 fn pmb<const D: usize>(dim: Dimensionality, horizon: f64) -> Pmb {
-    let c = Pmb::micromodulus(70e9, dim, MicromodulusProfile::Constant, horizon);
-    Pmb::new(
-        c,
-        f64::INFINITY,
+    Pmb::calibrated(
+        70e9,
+        None,
         2500.0,
         dim,
         MicromodulusProfile::Constant,

@@ -200,16 +200,7 @@ fn run<const D: usize, M: Material<D>>(
 fn pmb_2d_energy_and_momentum() {
     run::<2, _>("PMB 2D plane stress", 30, 3.0, |delta| {
         let dim = Dimensionality::PlaneStress;
-        let c0 = Pmb::micromodulus(E, dim, MicromodulusProfile::Constant, delta);
-        Pmb::new(
-            c0,
-            f64::INFINITY,
-            RHO,
-            dim,
-            MicromodulusProfile::Constant,
-            delta,
-            1.0,
-        )
+        Pmb::calibrated(E, None, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
     });
 }
 
@@ -235,15 +226,6 @@ fn lps_2d_energy_and_momentum() {
 fn pmb_3d_energy_and_momentum() {
     run::<3, _>("PMB 3D", 10, 3.0, |delta| {
         let dim = Dimensionality::ThreeD;
-        let c0 = Pmb::micromodulus(E, dim, MicromodulusProfile::Constant, delta);
-        Pmb::new(
-            c0,
-            f64::INFINITY,
-            RHO,
-            dim,
-            MicromodulusProfile::Constant,
-            delta,
-            1.0,
-        )
+        Pmb::calibrated(E, None, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
     });
 }

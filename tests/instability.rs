@@ -20,15 +20,9 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
     let cloud = peridyn::discretize::lattice::lattice(&shape, 2, dx, 1e-3).unwrap();
     let body = peridyn::body::Body::<2>::from_cloud(cloud, 3.0 * dx, 1e-3);
     let bonds = peridyn::bonds::search::build_bonds(&body, PartialVolume::Hhb, &[]);
-    let c = Pmb::micromodulus(
+    let pmb = Pmb::calibrated(
         70e9,
-        Dimensionality::PlaneStress,
-        MicromodulusProfile::Constant,
-        3.0 * dx,
-    );
-    let pmb = Pmb::new(
-        c,
-        f64::INFINITY,
+        None,
         2500.0,
         Dimensionality::PlaneStress,
         MicromodulusProfile::Constant,

@@ -200,10 +200,9 @@ fn measure<const D: usize, M: Material<D>>(
 
 fn pmb(dim: Dimensionality) -> impl FnOnce(f64, f64) -> Pmb {
     move |delta, thickness| {
-        let c0 = Pmb::micromodulus(E, dim, MicromodulusProfile::Constant, delta);
-        Pmb::new(
-            c0,
-            f64::INFINITY,
+        Pmb::calibrated(
+            E,
+            None,
             RHO,
             dim,
             MicromodulusProfile::Constant,

@@ -67,6 +67,21 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// The axis-aligned square (D = 2) or cube (D = 3) `[0, side]^D`.
+    pub fn cube(dim: usize, side: f64) -> Shape {
+        if dim == 3 {
+            Shape::Box {
+                min: [0.0; 3],
+                max: [side; 3],
+            }
+        } else {
+            Shape::Rectangle {
+                min: [0.0; 2],
+                max: [side; 2],
+            }
+        }
+    }
+
     /// The name used for this variant in decks (`type = "..."`).
     pub fn kind(&self) -> &'static str {
         match self {

@@ -131,6 +131,24 @@ impl Pmb {
         }
     }
 
+    /// Calibrated from Young's modulus and, if given, the fracture energy (seed 001, Eqs. 6
+    /// and 8); without G0 bonds never break.
+    pub fn calibrated(
+        e: f64,
+        g0: Option<f64>,
+        rho: f64,
+        dim: Dimensionality,
+        profile: MicromodulusProfile,
+        horizon: f64,
+        thickness: f64,
+    ) -> Self {
+        let c0 = Self::micromodulus(e, dim, profile, horizon);
+        let s0 = g0.map_or(f64::INFINITY, |g| {
+            Self::critical_stretch_from_g0(g, c0, dim, profile, horizon)
+        });
+        Self::new(c0, s0, rho, dim, profile, horizon, thickness)
+    }
+
     /// c(ξ) per unit volume² at a bond length.
     #[inline(always)]
     fn c(&self, ref_len: f64) -> f64 {

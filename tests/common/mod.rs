@@ -18,17 +18,7 @@ pub fn lattice_body<const D: usize>(
     rule: PartialVolume,
 ) -> (Body<D>, Bonds) {
     let side = n as f64 * dx;
-    let shape = if D == 3 {
-        Shape::Box {
-            min: [0.0; 3],
-            max: [side; 3],
-        }
-    } else {
-        Shape::Rectangle {
-            min: [0.0; 2],
-            max: [side; 2],
-        }
-    };
+    let shape = Shape::cube(D, side);
     let cloud = lattice(&shape, D, dx, THICKNESS).unwrap();
     let body = Body::<D>::from_cloud(cloud, m * dx, THICKNESS);
     let bonds = build_bonds(&body, rule, &[]);
@@ -59,8 +49,9 @@ pub fn pmb(
     profile: MicromodulusProfile,
     s0: f64,
 ) -> Pmb {
-    let c = Pmb::micromodulus(e, dim, profile, horizon);
-    Pmb::new(c, s0, 2000.0, dim, profile, horizon, THICKNESS)
+    let mut m = Pmb::calibrated(e, None, 2000.0, dim, profile, horizon, THICKNESS);
+    m.s0 = s0;
+    m
 }
 
 pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64, s0: f64) -> Lps {
