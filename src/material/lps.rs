@@ -35,6 +35,8 @@ pub struct Lps {
     pub rho: f64,
     /// Weighted volume m_i = Σ ω |ξ|² w_ij, fixed at its initial value (as Peridigm does).
     pub m: Vec<f64>,
+    /// 1/m_i (0 for a node without bonds): the bond loop multiplies instead of dividing.
+    inv_m: Vec<f64>,
     theta_factor: f64,
     a_vol: f64,
     b_dev: f64,
@@ -82,6 +84,7 @@ impl Lps {
             s0,
             rho,
             m: Vec::new(),
+            inv_m: Vec::new(),
             theta_factor,
             a_vol,
             b_dev,
@@ -111,13 +114,12 @@ impl Lps {
         }
     }
 
-    /// Scalar force state t⟨ξ⟩ of a node with weighted volume m and dilatation θ.
+    /// Scalar force state t⟨ξ⟩ of a node with 1/m = `inv_m` and dilatation θ, given the
+    /// bond's ω and extension e.
     #[inline(always)]
-    fn scalar_state(&self, m: f64, theta: f64, b: &BondGeom) -> f64 {
-        let w = self.omega(b.ref_len);
-        let e = b.len - b.ref_len;
-        (self.a_vol * theta * w * b.ref_len + self.b_dev * w * (e - self.c_iso * theta * b.ref_len))
-            / m
+    fn scalar_state(&self, inv_m: f64, theta: f64, w: f64, e: f64, ref_len: f64) -> f64 {
+        (self.a_vol * theta * w * ref_len + self.b_dev * w * (e - self.c_iso * theta * ref_len))
+            * inv_m
     }
 }
 
@@ -138,6 +140,11 @@ impl<const D: usize> Material<D> for Lps {
                     .sum::<f64>()
             })
             .collect();
+        self.inv_m = self
+            .m
+            .iter()
+            .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
+            .collect();
     }
 
     #[inline(always)]
@@ -147,26 +154,43 @@ impl<const D: usize> Material<D> for Lps {
 
     #[inline(always)]
     fn finish_point(&self, i: usize, acc: LpsPoint) -> LpsPoint {
-        let m = self.m[i];
         LpsPoint {
-            theta: if m > 0.0 {
-                self.theta_factor * acc.theta / m
-            } else {
-                0.0
-            },
+            theta: self.theta_factor * acc.theta * self.inv_m[i],
         }
     }
 
     /// Seed 002, Eqs. (4)–(5); the engine pairs it with t_j⟨−ξ⟩ as in Eq. (1).
     #[inline(always)]
     fn force_state(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
-        self.scalar_state(self.m[i], p.theta, b)
+        self.scalar_state(
+            self.inv_m[i],
+            p.theta,
+            self.omega(b.ref_len),
+            b.len - b.ref_len,
+            b.ref_len,
+        )
+    }
+
+    /// (t_i⟨ξ⟩ φ_ij + t_j⟨−ξ⟩ φ_ji) / |ξ+η|, sharing ω and e between the two states.
+    #[inline(always)]
+    fn pair_force_per_length(
+        &self,
+        i: usize,
+        j: usize,
+        b: &BondGeom,
+        pi: &LpsPoint,
+        pj: &LpsPoint,
+    ) -> f64 {
+        let (w, e) = (self.omega(b.ref_len), b.len - b.ref_len);
+        let ti = self.scalar_state(self.inv_m[i], pi.theta, w, e, b.ref_len);
+        let tj = self.scalar_state(self.inv_m[j], pj.theta, w, e, b.ref_len);
+        (ti * b.phi_ij + tj * b.phi_ji) / b.len
     }
 
     #[inline(always)]
     fn bond_energy(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
         let ed = (b.len - b.ref_len) - self.c_iso * p.theta * b.ref_len;
-        0.5 * self.b_dev / self.m[i] * self.omega(b.ref_len) * ed * ed * b.weight()
+        0.5 * self.b_dev * self.inv_m[i] * self.omega(b.ref_len) * ed * ed * b.weight()
     }
 
     fn point_energy(&self, _i: usize, p: &LpsPoint, bond_sum: f64) -> f64 {
