@@ -121,6 +121,11 @@ pub trait Material<const D: usize>: Sync + Send {
     /// Mass density (kg/m³).
     fn density(&self) -> f64;
 
+    /// The PMB law, for the engine's vector kernel; other models keep the generic loop.
+    fn as_pmb(&self) -> Option<&Pmb> {
+        None
+    }
+
     /// The classical elastic constants the model represents.
     fn elasticity(&self) -> Elasticity;
 }

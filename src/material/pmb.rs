@@ -201,6 +201,10 @@ impl<const D: usize> Material<D> for Pmb {
         self.rho
     }
 
+    fn as_pmb(&self) -> Option<&Pmb> {
+        Some(self)
+    }
+
     fn elasticity(&self) -> Elasticity {
         self.elasticity
     }

@@ -4,6 +4,7 @@
 //! Parallelism is gather-style over node chunks: each node sums its own family in a fixed
 //! order, so results are bitwise identical for any number of threads.
 
+use super::simd::PmbKernel;
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
@@ -21,6 +22,10 @@ const NODE_CHUNK: usize = 256;
 pub struct ForceEngine<const D: usize, M: Material<D>> {
     pub material: M,
     pub quad: Quadrature,
+    /// Use the AVX2 PMB kernel where it applies (3D, uniform grid, x86-64 with AVX2).
+    pub vector_kernels: bool,
+    /// Every neighbour index is a node of the body (checked once; the kernel relies on it).
+    neighbors_in_bounds: bool,
     points: Vec<M::Point>,
     chunks: Vec<Range<usize>>,
 }
@@ -125,9 +130,12 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .step_by(NODE_CHUNK)
             .map(|s| s..(s + NODE_CHUNK).min(n))
             .collect();
+        let neighbors_in_bounds = bonds.neighbors.iter().all(|&j| (j as usize) < n);
         ForceEngine {
             material,
             quad,
+            vector_kernels: true,
+            neighbors_in_bounds,
             points: vec![M::Point::default(); n],
             chunks,
         }
@@ -211,6 +219,24 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
         let (material, points) = (&self.material, &self.points);
         let current = &state.current;
+        let kernel =
+            if D == 3 && !M::NEEDS_PREPASS && self.vector_kernels && self.neighbors_in_bounds {
+                material.as_pmb().and_then(|p| {
+                    PmbKernel::new(p.c0, p.horizon, p.profile, p.s0, self.quad.uniform())
+                })
+            } else {
+                None
+            };
+        // The current positions as one flat x, y, z array (nalgebra vectors are plain arrays).
+        assert_eq!(
+            std::mem::size_of::<Vector<D>>(),
+            D * std::mem::size_of::<f64>()
+        );
+        // SAFETY: `Vector<D>` is a `[f64; D]` in memory (size checked above), so the vector
+        // slice is `D * len` contiguous f64 values.
+        let flat: &[f64] = unsafe {
+            std::slice::from_raw_parts(current.as_ptr() as *const f64, current.len() * D)
+        };
         newly_broken += self
             .chunks
             .par_iter()
@@ -224,6 +250,23 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 for (k, i) in nodes.clone().enumerate() {
                     let pi = &points[i];
                     let r = bonds.family(i);
+                    if let Some(kernel) = &kernel {
+                        let status = &mut status[r.start - base..r.end - base];
+                        // SAFETY: neighbour indices were checked against the body once.
+                        let (fk, nb) = unsafe {
+                            kernel.node_force(
+                                i,
+                                flat,
+                                &bonds.neighbors[r.clone()],
+                                &bonds.ref_lengths[r.clone()],
+                                status,
+                                no_fail,
+                            )
+                        };
+                        forces[k] = Vector::<D>::from_fn(|a, _| fk[a]);
+                        broke += nb;
+                        continue;
+                    }
                     let mut f = Vector::<D>::zeros();
                     let family = Family {
                         i,
