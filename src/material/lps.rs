@@ -4,7 +4,9 @@
 
 use super::{BondGeom, Dimensionality, Elasticity, Material};
 use crate::body::Body;
+use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
+use crate::solver::simd::{self, NodeBonds};
 use serde::{Deserialize, Serialize};
 
 /// Influence function ω(|ξ|).
@@ -19,7 +21,9 @@ pub enum Influence {
 }
 
 /// Per-node state of the pre-pass: the dilatation θ (before: the weighted sum Σ ω|ξ| e w).
+/// Transparent, so a slice of points is a slice of θ for the vector kernel.
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(transparent)]
 pub struct LpsPoint {
     pub theta: f64,
 }
@@ -103,6 +107,17 @@ impl Lps {
         match elasticity.dimensionality {
             Dimensionality::ThreeD => (5.0 * g0 / (9.0 * kappa * horizon)).sqrt(),
             _ => (std::f64::consts::PI * g0 / (3.0 * kappa * horizon)).sqrt(),
+        }
+    }
+
+    /// The constants of the force state, for the vector kernels.
+    fn law(&self) -> simd::LpsLaw {
+        simd::LpsLaw {
+            a_vol: self.a_vol,
+            b_dev: self.b_dev,
+            c_iso: self.c_iso,
+            horizon: self.horizon,
+            inverse_influence: self.influence == Influence::Inverse,
         }
     }
 
@@ -191,6 +206,35 @@ impl<const D: usize> Material<D> for Lps {
     fn bond_energy(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
         let ed = (b.len - b.ref_len) - self.c_iso * p.theta * b.ref_len;
         0.5 * self.b_dev * self.inv_m[i] * self.omega(b.ref_len) * ed * ed * b.weight()
+    }
+
+    unsafe fn vector_prepass(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+    ) -> Option<(LpsPoint, u64)> {
+        // SAFETY: forwarded from the caller.
+        let (sum, broke) = unsafe { simd::lps_dilatation_sum(nb, &self.law(), w) };
+        Some((
+            Material::<D>::finish_point(self, nb.i, LpsPoint { theta: sum }),
+            broke,
+        ))
+    }
+
+    unsafe fn vector_force(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+        points: &[LpsPoint],
+    ) -> Option<([f64; 3], u64)> {
+        // SAFETY: `LpsPoint` is a transparent f64.
+        let theta =
+            unsafe { std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len()) };
+        // SAFETY: forwarded from the caller.
+        Some((
+            unsafe { simd::lps_force(nb, &self.law(), w, theta, &self.inv_m) },
+            0,
+        ))
     }
 
     fn point_energy(&self, _i: usize, p: &LpsPoint, bond_sum: f64) -> f64 {

@@ -13,7 +13,9 @@ pub use lps::Lps;
 pub use pmb::{MicromodulusProfile, Pmb};
 
 use crate::body::Body;
+use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
+use crate::solver::simd::NodeBonds;
 
 /// Geometry of one directed bond i→j at the current configuration.
 #[derive(Debug, Clone, Copy)]
@@ -121,8 +123,30 @@ pub trait Material<const D: usize>: Sync + Send {
     /// Mass density (kg/m³).
     fn density(&self) -> f64;
 
-    /// The PMB law, for the engine's vector kernel; other models keep the generic loop.
-    fn as_pmb(&self) -> Option<&Pmb> {
+    /// Optional AVX2 pre-pass of one node (3D, uniform grid): its point state and the bonds
+    /// it broke, or `None` to use the generic loop.
+    ///
+    /// # Safety
+    /// `solver::simd::available()` and every neighbour index below `nb.current.len() / 3`.
+    unsafe fn vector_prepass(
+        &self,
+        _nb: &mut NodeBonds,
+        _w: &UniformWeights,
+    ) -> Option<(Self::Point, u64)> {
+        None
+    }
+
+    /// Optional AVX2 force pass of one node (3D, uniform grid): its force density and the
+    /// bonds it broke, or `None` to use the generic loop.
+    ///
+    /// # Safety
+    /// As for `vector_prepass`.
+    unsafe fn vector_force(
+        &self,
+        _nb: &mut NodeBonds,
+        _w: &UniformWeights,
+        _points: &[Self::Point],
+    ) -> Option<([f64; 3], u64)> {
         None
     }
 

@@ -2,6 +2,8 @@
 //! constant or conical micromodulus and irreversible critical-stretch failure.
 
 use super::{BondGeom, Dimensionality, Elasticity, Material};
+use crate::bonds::partial_volume::UniformWeights;
+use crate::solver::simd::{self, NodeBonds};
 use serde::{Deserialize, Serialize};
 
 /// Shape of the micromodulus along the bond, c(ξ) = c0 · g(ξ).
@@ -201,8 +203,19 @@ impl<const D: usize> Material<D> for Pmb {
         self.rho
     }
 
-    fn as_pmb(&self) -> Option<&Pmb> {
-        Some(self)
+    unsafe fn vector_force(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+        _: &[()],
+    ) -> Option<([f64; 3], u64)> {
+        let law = simd::PmbLaw {
+            c0: self.c0,
+            horizon: self.horizon,
+            conical: self.profile == MicromodulusProfile::Conical,
+        };
+        // SAFETY: forwarded from the caller.
+        Some(unsafe { simd::pmb_force(nb, &law, w) })
     }
 
     fn elasticity(&self) -> Elasticity {

@@ -4,7 +4,7 @@
 //! Parallelism is gather-style over node chunks: each node sums its own family in a fixed
 //! order, so results are bitwise identical for any number of threads.
 
-use super::simd::PmbKernel;
+use super::simd::{self, NodeBonds};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
@@ -22,7 +22,7 @@ const NODE_CHUNK: usize = 256;
 pub struct ForceEngine<const D: usize, M: Material<D>> {
     pub material: M,
     pub quad: Quadrature,
-    /// Use the AVX2 PMB kernel where it applies (3D, uniform grid, x86-64 with AVX2).
+    /// Use the models' AVX2 kernels where they apply (3D, uniform grid, x86-64 with AVX2).
     pub vector_kernels: bool,
     /// Every neighbour index is a node of the body (checked once; the kernel relies on it).
     neighbors_in_bounds: bool,
@@ -173,6 +173,27 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let s0 = self.material.critical_stretch();
         let no_fail: &[bool] = &body.no_fail;
         let mut newly_broken = 0u64;
+        // The AVX2 kernels, where the model has them: 3D, uniform grid, x86-64 with AVX2, and
+        // neighbour indices known to be in bounds (the kernels' gathers rely on it).
+        let vector =
+            if D == 3 && self.vector_kernels && self.neighbors_in_bounds && simd::available() {
+                self.quad.uniform()
+            } else {
+                None
+            };
+        // The current positions as one flat x, y, z array.
+        assert_eq!(
+            std::mem::size_of::<Vector<D>>(),
+            D * std::mem::size_of::<f64>()
+        );
+        // SAFETY: `Vector<D>` is a `[f64; D]` in memory (size checked above), so the slice of
+        // vectors is `D * len` contiguous f64 values.
+        let flat: &[f64] = unsafe {
+            std::slice::from_raw_parts(
+                state.current.as_ptr() as *const f64,
+                state.current.len() * D,
+            )
+        };
 
         if M::NEEDS_PREPASS {
             let (material, chunks) = (&self.material, &self.chunks);
@@ -191,6 +212,26 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let mut broke = 0u64;
                     for (k, i) in nodes.clone().enumerate() {
                         let r = bonds.family(i);
+                        let status = &mut status[r.start - base..r.end - base];
+                        if let Some(w) = &vector {
+                            let mut nb = NodeBonds {
+                                i,
+                                current: flat,
+                                neighbors: &bonds.neighbors[r.clone()],
+                                ref_lengths: &bonds.ref_lengths[r.clone()],
+                                status,
+                                no_fail,
+                                s0: Some(s0),
+                            };
+                            // SAFETY: AVX2 is available and neighbour indices are in bounds.
+                            if let Some((p, nb_broken)) =
+                                unsafe { material.vector_prepass(&mut nb, w) }
+                            {
+                                points[k] = p;
+                                broke += nb_broken;
+                                continue;
+                            }
+                        }
                         let mut acc = M::Point::default();
                         let family = Family {
                             i,
@@ -199,7 +240,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         };
                         broke += family.visit_intact(
                             current,
-                            &mut status[r.start - base..r.end - base],
+                            status,
                             Some((s0, no_fail)),
                             |j, ref_len, _, len| {
                                 material.accumulate(&mut acc, &weights.geom(i, j, ref_len, len));
@@ -219,24 +260,8 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
         let (material, points) = (&self.material, &self.points);
         let current = &state.current;
-        let kernel =
-            if D == 3 && !M::NEEDS_PREPASS && self.vector_kernels && self.neighbors_in_bounds {
-                material.as_pmb().and_then(|p| {
-                    PmbKernel::new(p.c0, p.horizon, p.profile, p.s0, self.quad.uniform())
-                })
-            } else {
-                None
-            };
-        // The current positions as one flat x, y, z array (nalgebra vectors are plain arrays).
-        assert_eq!(
-            std::mem::size_of::<Vector<D>>(),
-            D * std::mem::size_of::<f64>()
-        );
-        // SAFETY: `Vector<D>` is a `[f64; D]` in memory (size checked above), so the vector
-        // slice is `D * len` contiguous f64 values.
-        let flat: &[f64] = unsafe {
-            std::slice::from_raw_parts(current.as_ptr() as *const f64, current.len() * D)
-        };
+        // A two-pass model decided failure in its pre-pass.
+        let failure = (!M::NEEDS_PREPASS).then_some((s0, no_fail));
         newly_broken += self
             .chunks
             .par_iter()
@@ -245,47 +270,43 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .map(|((nodes, status), forces)| {
                 let base = bonds.offsets[nodes.start];
                 let mut broke = 0u64;
-                // A two-pass model decided failure in its pre-pass.
-                let failure = (!M::NEEDS_PREPASS).then_some((s0, no_fail));
                 for (k, i) in nodes.clone().enumerate() {
-                    let pi = &points[i];
                     let r = bonds.family(i);
-                    if let Some(kernel) = &kernel {
-                        let status = &mut status[r.start - base..r.end - base];
-                        // SAFETY: neighbour indices were checked against the body once.
-                        let (fk, nb) = unsafe {
-                            kernel.node_force(
-                                i,
-                                flat,
-                                &bonds.neighbors[r.clone()],
-                                &bonds.ref_lengths[r.clone()],
-                                status,
-                                no_fail,
-                            )
+                    let status = &mut status[r.start - base..r.end - base];
+                    if let Some(w) = &vector {
+                        let mut nb = NodeBonds {
+                            i,
+                            current: flat,
+                            neighbors: &bonds.neighbors[r.clone()],
+                            ref_lengths: &bonds.ref_lengths[r.clone()],
+                            status,
+                            no_fail,
+                            s0: failure.map(|f| f.0),
                         };
-                        forces[k] = Vector::<D>::from_fn(|a, _| fk[a]);
-                        broke += nb;
-                        continue;
+                        // SAFETY: AVX2 is available and neighbour indices are in bounds.
+                        if let Some((f, nb_broken)) =
+                            unsafe { material.vector_force(&mut nb, w, points) }
+                        {
+                            forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
+                            broke += nb_broken;
+                            continue;
+                        }
                     }
+                    let pi = &points[i];
                     let mut f = Vector::<D>::zeros();
                     let family = Family {
                         i,
                         neighbors: &bonds.neighbors[r.clone()],
                         ref_lengths: &bonds.ref_lengths[r.clone()],
                     };
-                    broke += family.visit_intact(
-                        current,
-                        &mut status[r.start - base..r.end - base],
-                        failure,
-                        |j, ref_len, y, len| {
-                            if len > 0.0 {
-                                let g = weights.geom(i, j, ref_len, len);
-                                f += y
-                                    * (material.pair_force_per_length(i, j, &g, pi, &points[j])
-                                        * g.vol_j);
-                            }
-                        },
-                    );
+                    broke += family.visit_intact(current, status, failure, |j, ref_len, y, len| {
+                        if len > 0.0 {
+                            let g = weights.geom(i, j, ref_len, len);
+                            f += y
+                                * (material.pair_force_per_length(i, j, &g, pi, &points[j])
+                                    * g.vol_j);
+                        }
+                    });
                     forces[k] = f;
                 }
                 broke

@@ -1,169 +1,314 @@
-//! The PMB force pass on four bonds at a time with AVX2 (x86-64, 3D, uniform
-//! grids). Same law, failure rule and partial-volume factor as the generic loop; only the
-//! order in which a node's bond forces are summed differs (four lanes, then the tail), and it
-//! is fixed, so results stay bitwise identical for any thread count.
+//! Bond loops on four bonds at a time with AVX2 (x86-64, 3D, uniform grids), for the models
+//! that provide them (PMB force; LPS pre-pass and force). Same laws, failure rule and
+//! partial-volume factor as the generic loops; only the order in which a node's bond terms are
+//! summed differs (four lanes, then the tail), and it is fixed, so results stay bitwise
+//! identical for any thread count. `tests/kernels.rs` checks them against the generic loop.
 
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::PartialVolume;
-use crate::material::MicromodulusProfile;
 use crate::state::{BROKEN, INTACT};
 
-/// A PMB bond law on a uniform grid, ready for the vector kernel.
+/// Whether this machine can run the kernels.
+pub fn available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The family of node i as a kernel sees it.
+pub struct NodeBonds<'a> {
+    pub i: usize,
+    /// Current positions, flat x, y, z.
+    pub current: &'a [f64],
+    pub neighbors: &'a [u32],
+    pub ref_lengths: &'a [f64],
+    pub status: &'a mut [u8],
+    pub no_fail: &'a [bool],
+    /// Critical stretch, or `None` when this pass does not decide failure.
+    pub s0: Option<f64>,
+}
+
+/// Constants of a PMB bond law (seed 001, Eq. 4), per unit volume².
 #[derive(Debug, Clone, Copy)]
-pub struct PmbKernel {
+pub struct PmbLaw {
     pub c0: f64,
     pub horizon: f64,
     pub conical: bool,
-    pub s0: f64,
-    weights: UniformWeights,
 }
 
-impl PmbKernel {
-    /// The kernel, if this machine has AVX2 and the grid is uniform.
-    pub fn new(
-        c0: f64,
-        horizon: f64,
-        profile: MicromodulusProfile,
-        s0: f64,
-        weights: Option<UniformWeights>,
-    ) -> Option<Self> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::is_x86_feature_detected!("avx2") {
-                return weights.map(|weights| PmbKernel {
-                    c0,
-                    horizon,
-                    conical: profile == MicromodulusProfile::Conical,
-                    s0,
-                    weights,
-                });
+/// Constants of the LPS force state t = (a θ ω|ξ| + b ω (e − c θ |ξ|)) / m (seed 002, Eqs. 3–5).
+#[derive(Debug, Clone, Copy)]
+pub struct LpsLaw {
+    pub a_vol: f64,
+    pub b_dev: f64,
+    pub c_iso: f64,
+    pub horizon: f64,
+    /// ω = δ/|ξ| instead of 1.
+    pub inverse_influence: bool,
+}
+
+/// |y| of a deformed bond vector, in the order the vector lanes use.
+#[inline(always)]
+fn length(d: &[f64; 3]) -> f64 {
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+/// The scalar tail of a family: calls `f(j, |ξ|, y, |y|)` for each intact bond from `from` on,
+/// deciding failure like the lanes do. Returns the bonds broken.
+fn tail(nb: &mut NodeBonds, from: usize, mut f: impl FnMut(usize, f64, [f64; 3], f64)) -> u64 {
+    let i = nb.i;
+    let (xi, yi, zi) = (
+        nb.current[3 * i],
+        nb.current[3 * i + 1],
+        nb.current[3 * i + 2],
+    );
+    let mut broke = 0;
+    for b in from..nb.neighbors.len() {
+        if nb.status[b] != INTACT {
+            continue;
+        }
+        let j = nb.neighbors[b] as usize;
+        let d = [
+            nb.current[3 * j] - xi,
+            nb.current[3 * j + 1] - yi,
+            nb.current[3 * j + 2] - zi,
+        ];
+        let len = length(&d);
+        let l = nb.ref_lengths[b];
+        if let Some(s0) = nb.s0 {
+            if len - l > s0 * l && !(nb.no_fail[i] || nb.no_fail[j]) {
+                nb.status[b] = BROKEN;
+                broke += 1;
+                continue;
             }
         }
-        let _ = (c0, horizon, profile, s0, weights);
-        None
+        if len > 0.0 {
+            f(j, l, d, len);
+        }
     }
+    broke
+}
 
-    /// Scalar bond law of the tail lanes: c(ξ) φ (|y| − |ξ|)/(|ξ||y|) V (seed 001, Eq. 4).
+impl PmbLaw {
+    /// c(ξ) φ̄ (|y| − |ξ|) / (|ξ||y|) V, the generic loop's `pair_force_per_length × V`.
     #[inline(always)]
-    fn coefficient(&self, ref_len: f64, len: f64) -> f64 {
+    fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
         let c = if self.conical {
-            self.c0 * (1.0 - ref_len / self.horizon).max(0.0)
+            self.c0 * (1.0 - l / self.horizon).max(0.0)
         } else {
             self.c0
         };
-        let phi = self.weights.phi(ref_len);
-        c * 0.5 * (phi + phi) * (len - ref_len) / (ref_len * len) * self.weights.node.volume
+        let phi = w.phi(l);
+        c * 0.5 * (phi + phi) * (len - l) / (l * len) * w.node.volume
     }
+}
 
-    /// Force density on node i and the number of bonds it broke. `current` is the flat
-    /// x, y, z array of current positions.
-    ///
-    /// # Safety
-    /// Every neighbour index must be below `current.len() / 3` (the engine checks this once
-    /// for its immutable bonds before using the kernel).
-    pub unsafe fn node_force(
-        &self,
-        i: usize,
-        current: &[f64],
-        neighbors: &[u32],
-        ref_lengths: &[f64],
-        status: &mut [u8],
-        no_fail: &[bool],
-    ) -> ([f64; 3], u64) {
-        assert!(neighbors.len() == ref_lengths.len() && neighbors.len() == status.len());
-        // SAFETY: `new` returned Some only where AVX2 is available; the caller guarantees the
-        // gather indices are in bounds.
-        #[cfg(target_arch = "x86_64")]
-        unsafe {
-            self.node_force_avx2(i, current, neighbors, ref_lengths, status, no_fail)
+impl LpsLaw {
+    #[inline(always)]
+    fn omega(&self, l: f64) -> f64 {
+        if self.inverse_influence {
+            self.horizon / l
+        } else {
+            1.0
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        unreachable!("PmbKernel::new returns None off x86-64")
+    }
+    #[inline(always)]
+    fn state(&self, inv_m: f64, theta: f64, w: f64, e: f64, l: f64) -> f64 {
+        (self.a_vol * theta * w * l + self.b_dev * w * (e - self.c_iso * theta * l)) * inv_m
+    }
+}
+
+/// PMB force density on node i and the bonds broken.
+///
+/// # Safety
+/// `available()` must be true and every neighbour index below `current.len() / 3`.
+pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        avx::pmb_force(nb, law, w)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("available() is false off x86-64")
+}
+
+/// LPS pre-pass of node i: the raw sum Σ ω|ξ| e φ V over intact bonds, and the bonds broken.
+///
+/// # Safety
+/// As for `pmb_force`.
+pub unsafe fn lps_dilatation_sum(
+    nb: &mut NodeBonds,
+    law: &LpsLaw,
+    w: &UniformWeights,
+) -> (f64, u64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        avx::lps_dilatation_sum(nb, law, w)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("available() is false off x86-64")
+}
+
+/// LPS force density on node i from the dilatations and 1/m of all nodes.
+///
+/// # Safety
+/// As for `pmb_force`; `theta` and `inv_m` have one entry per node.
+pub unsafe fn lps_force(
+    nb: &mut NodeBonds,
+    law: &LpsLaw,
+    w: &UniformWeights,
+    theta: &[f64],
+    inv_m: &[f64],
+) -> [f64; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        avx::lps_force(nb, law, w, theta, inv_m)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("available() is false off x86-64")
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    /// Deformed bond vectors and lengths of bonds b..b+4 (masked loads: never past a node).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bond_vectors(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
+        let base = nb.current.as_ptr();
+        let mask = _mm256_set_epi64x(0, -1, -1, -1);
+        let row =
+            |lane: usize| _mm256_maskload_pd(base.add(3 * nb.neighbors[b + lane] as usize), mask);
+        let (r0, r1, r2, r3) = (row(0), row(1), row(2), row(3));
+        let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+        let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+        let dx = _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t0, t2), yi[0]);
+        let dy = _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t1, t3), yi[1]);
+        let dz = _mm256_sub_pd(_mm256_permute2f128_pd::<0x31>(t0, t2), yi[2]);
+        let len = _mm256_sqrt_pd(_mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+            _mm256_mul_pd(dz, dz),
+        ));
+        [dx, dy, dz, len]
     }
 
-    #[cfg(target_arch = "x86_64")]
+    /// Lanes of bonds b..b+4 that are intact, as a mask.
     #[target_feature(enable = "avx2")]
-    unsafe fn node_force_avx2(
-        &self,
-        i: usize,
-        current: &[f64],
-        neighbors: &[u32],
-        ref_lengths: &[f64],
-        status: &mut [u8],
-        no_fail: &[bool],
-    ) -> ([f64; 3], u64) {
-        use std::arch::x86_64::*;
-        let base = current.as_ptr();
-        let (xi, yi, zi) = (current[3 * i], current[3 * i + 1], current[3 * i + 2]);
-        let (vxi, vyi, vzi) = (_mm256_set1_pd(xi), _mm256_set1_pd(yi), _mm256_set1_pd(zi));
-        let zero = _mm256_setzero_pd();
-        let xyz_mask = _mm256_set_epi64x(0, -1, -1, -1);
-        let one = _mm256_set1_pd(1.0);
-        let (c0, half, s0) = (
-            _mm256_set1_pd(self.c0),
-            _mm256_set1_pd(0.5),
-            _mm256_set1_pd(self.s0),
-        );
-        let delta = _mm256_set1_pd(self.horizon);
-        let n = &self.weights.node;
-        let (reach, inv_cell, horizon, volume) = (
-            _mm256_set1_pd(n.horizon + n.half_cell),
-            _mm256_set1_pd(n.inv_cell),
-            _mm256_set1_pd(n.horizon),
-            _mm256_set1_pd(n.volume),
-        );
-        let (mut ax, mut ay, mut az) = (zero, zero, zero);
-        let mut broke = 0u64;
-        let count = neighbors.len();
-        let mut b = 0;
-        while b + 4 <= count {
-            let st = u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
-            if st == u32::from_le_bytes([BROKEN; 4]) {
-                b += 4;
-                continue;
-            }
-            // Load (x, y, z) of the four neighbours (masked: never past a node) and transpose.
-            let row = |lane: usize| {
-                _mm256_maskload_pd(base.add(3 * neighbors[b + lane] as usize), xyz_mask)
-            };
-            let (r0, r1, r2, r3) = (row(0), row(1), row(2), row(3));
-            let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-            let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
-            let dx = _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t0, t2), vxi);
-            let dy = _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t1, t3), vyi);
-            let dz = _mm256_sub_pd(_mm256_permute2f128_pd::<0x31>(t0, t2), vzi);
-            let len = _mm256_sqrt_pd(_mm256_add_pd(
-                _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
-                _mm256_mul_pd(dz, dz),
-            ));
-            let l = _mm256_loadu_pd(ref_lengths.as_ptr().add(b));
-            let intact_of = |st: u32| {
-                _mm256_castsi256_pd(_mm256_cmpeq_epi64(
-                    _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),
-                    _mm256_setzero_si256(),
-                ))
-            };
-            let mut intact = intact_of(st);
-            // Failure: s > s0, i.e. |y| − |ξ| > s0 |ξ| (same arithmetic as the generic walker).
+    #[inline]
+    unsafe fn intact(status: &[u8], b: usize) -> __m256d {
+        let st = u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
+        _mm256_castsi256_pd(_mm256_cmpeq_epi64(
+            _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),
+            _mm256_setzero_si256(),
+        ))
+    }
+
+    /// Failure of bonds b..b+4 (s > s0, unless an end is no-fail), then the mask of lanes that
+    /// carry force: intact and of non-zero length.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn fail_and_keep(
+        nb: &mut NodeBonds,
+        b: usize,
+        len: __m256d,
+        l: __m256d,
+        broke: &mut u64,
+    ) -> __m256d {
+        let mut keep = intact(nb.status, b);
+        if let Some(s0) = nb.s0 {
             let over = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_sub_pd(len, l), _mm256_mul_pd(s0, l)),
-                intact,
+                _mm256_cmp_pd::<_CMP_GT_OQ>(
+                    _mm256_sub_pd(len, l),
+                    _mm256_mul_pd(_mm256_set1_pd(s0), l),
+                ),
+                keep,
             );
             let bits = _mm256_movemask_pd(over);
             if bits != 0 {
                 for lane in 0..4 {
-                    let j = neighbors[b + lane] as usize;
-                    if bits & (1 << lane) != 0 && !(no_fail[i] || no_fail[j]) {
-                        status[b + lane] = BROKEN;
-                        broke += 1;
+                    let j = nb.neighbors[b + lane] as usize;
+                    if bits & (1 << lane) != 0 && !(nb.no_fail[nb.i] || nb.no_fail[j]) {
+                        nb.status[b + lane] = BROKEN;
+                        *broke += 1;
                     }
                 }
-                let st =
-                    u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
-                intact = intact_of(st);
+                keep = intact(nb.status, b);
             }
-            let keep = _mm256_and_pd(intact, _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero));
-            let c = if self.conical {
+        }
+        _mm256_and_pd(keep, _mm256_cmp_pd::<_CMP_GT_OQ>(len, _mm256_setzero_pd()))
+    }
+
+    /// φ(|ξ|) of seed 000, Eq. 12, on four lanes with the scalar rule's arithmetic.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn phi(w: &UniformWeights, l: __m256d) -> __m256d {
+        let n = &w.node;
+        match w.rule {
+            PartialVolume::Hhb => _mm256_min_pd(
+                _mm256_max_pd(
+                    _mm256_mul_pd(
+                        _mm256_sub_pd(_mm256_set1_pd(n.horizon + n.half_cell), l),
+                        _mm256_set1_pd(n.inv_cell),
+                    ),
+                    _mm256_setzero_pd(),
+                ),
+                _mm256_set1_pd(1.0),
+            ),
+            PartialVolume::None => _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_LE_OQ>(l, _mm256_set1_pd(n.horizon)),
+                _mm256_set1_pd(1.0),
+            ),
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn sum(v: __m256d) -> f64 {
+        let mut a = [0.0; 4];
+        _mm256_storeu_pd(a.as_mut_ptr(), v);
+        (a[0] + a[1]) + (a[2] + a[3])
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn own_position(nb: &NodeBonds) -> [__m256d; 3] {
+        let i = nb.i;
+        [
+            _mm256_set1_pd(nb.current[3 * i]),
+            _mm256_set1_pd(nb.current[3 * i + 1]),
+            _mm256_set1_pd(nb.current[3 * i + 2]),
+        ]
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn pmb_force(
+        nb: &mut NodeBonds,
+        law: &PmbLaw,
+        w: &UniformWeights,
+    ) -> ([f64; 3], u64) {
+        let yi = own_position(nb);
+        let (c0, half, delta, one, zero) = (
+            _mm256_set1_pd(law.c0),
+            _mm256_set1_pd(0.5),
+            _mm256_set1_pd(law.horizon),
+            _mm256_set1_pd(1.0),
+            _mm256_setzero_pd(),
+        );
+        let volume = _mm256_set1_pd(w.node.volume);
+        let mut acc = [zero; 3];
+        let mut broke = 0;
+        let mut b = 0;
+        while b + 4 <= nb.neighbors.len() {
+            let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            let keep = fail_and_keep(nb, b, len, l, &mut broke);
+            let c = if law.conical {
                 _mm256_mul_pd(
                     c0,
                     _mm256_max_pd(_mm256_sub_pd(one, _mm256_div_pd(l, delta)), zero),
@@ -171,17 +316,11 @@ impl PmbKernel {
             } else {
                 c0
             };
-            let phi = match self.weights.rule {
-                PartialVolume::Hhb => _mm256_min_pd(
-                    _mm256_max_pd(_mm256_mul_pd(_mm256_sub_pd(reach, l), inv_cell), zero),
-                    one,
-                ),
-                PartialVolume::None => _mm256_and_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(l, horizon), one),
-            };
+            let p = phi(w, l);
             let coef = _mm256_mul_pd(
                 _mm256_div_pd(
                     _mm256_mul_pd(
-                        _mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(phi, phi)),
+                        _mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(p, p)),
                         _mm256_sub_pd(len, l),
                     ),
                     _mm256_mul_pd(l, len),
@@ -189,41 +328,129 @@ impl PmbKernel {
                 volume,
             );
             let coef = _mm256_and_pd(coef, keep);
-            ax = _mm256_add_pd(ax, _mm256_mul_pd(coef, dx));
-            ay = _mm256_add_pd(ay, _mm256_mul_pd(coef, dy));
-            az = _mm256_add_pd(az, _mm256_mul_pd(coef, dz));
+            acc[0] = _mm256_add_pd(acc[0], _mm256_mul_pd(coef, dx));
+            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(coef, dy));
+            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(coef, dz));
             b += 4;
         }
-        let lanes = |v: __m256d| {
-            let mut a = [0.0; 4];
-            _mm256_storeu_pd(a.as_mut_ptr(), v);
-            (a[0] + a[1]) + (a[2] + a[3])
-        };
-        let mut f = [lanes(ax), lanes(ay), lanes(az)];
-        for b in b..count {
-            if status[b] != INTACT {
-                continue;
+        let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
+        broke += tail(nb, b, |_, l, d, len| {
+            let coef = law.coefficient(w, l, len);
+            for a in 0..3 {
+                f[a] += coef * d[a];
             }
-            let j = neighbors[b] as usize;
-            let d = [
-                current[3 * j] - xi,
-                current[3 * j + 1] - yi,
-                current[3 * j + 2] - zi,
-            ];
-            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let l = ref_lengths[b];
-            if len - l > self.s0 * l && !(no_fail[i] || no_fail[j]) {
-                status[b] = BROKEN;
-                broke += 1;
-                continue;
-            }
-            if len > 0.0 {
-                let coef = self.coefficient(l, len);
-                for a in 0..3 {
-                    f[a] += coef * d[a];
-                }
-            }
-        }
+        });
         (f, broke)
+    }
+
+    /// ω(|ξ|) on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn omega(law: &LpsLaw, l: __m256d) -> __m256d {
+        if law.inverse_influence {
+            _mm256_div_pd(_mm256_set1_pd(law.horizon), l)
+        } else {
+            _mm256_set1_pd(1.0)
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn lps_dilatation_sum(
+        nb: &mut NodeBonds,
+        law: &LpsLaw,
+        w: &UniformWeights,
+    ) -> (f64, u64) {
+        let yi = own_position(nb);
+        let volume = _mm256_set1_pd(w.node.volume);
+        let mut acc = _mm256_setzero_pd();
+        let mut broke = 0;
+        let mut b = 0;
+        while b + 4 <= nb.neighbors.len() {
+            let [_, _, _, len] = bond_vectors(nb, b, yi);
+            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            let keep = fail_and_keep(nb, b, len, l, &mut broke);
+            // ω |ξ| e φ V, in the generic `accumulate`'s order.
+            let term = _mm256_mul_pd(
+                _mm256_mul_pd(_mm256_mul_pd(omega(law, l), l), _mm256_sub_pd(len, l)),
+                _mm256_mul_pd(phi(w, l), volume),
+            );
+            acc = _mm256_add_pd(acc, _mm256_and_pd(term, keep));
+            b += 4;
+        }
+        let mut s = sum(acc);
+        broke += tail(nb, b, |_, l, _, len| {
+            s += law.omega(l) * l * (len - l) * (w.phi(l) * w.node.volume)
+        });
+        (s, broke)
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn lps_force(
+        nb: &mut NodeBonds,
+        law: &LpsLaw,
+        w: &UniformWeights,
+        theta: &[f64],
+        inv_m: &[f64],
+    ) -> [f64; 3] {
+        let i = nb.i;
+        let yi = own_position(nb);
+        let (a, bd, c) = (
+            _mm256_set1_pd(law.a_vol),
+            _mm256_set1_pd(law.b_dev),
+            _mm256_set1_pd(law.c_iso),
+        );
+        let (theta_i, inv_m_i) = (_mm256_set1_pd(theta[i]), _mm256_set1_pd(inv_m[i]));
+        let volume = _mm256_set1_pd(w.node.volume);
+        // t = (a θ ω |ξ| + b ω (e − c θ |ξ|)) / m, the generic `scalar_state`'s order.
+        let state = |th: __m256d, im: __m256d, om: __m256d, e: __m256d, l: __m256d| {
+            _mm256_mul_pd(
+                _mm256_add_pd(
+                    _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(a, th), om), l),
+                    _mm256_mul_pd(
+                        _mm256_mul_pd(bd, om),
+                        _mm256_sub_pd(e, _mm256_mul_pd(_mm256_mul_pd(c, th), l)),
+                    ),
+                ),
+                im,
+            )
+        };
+        let mut acc = [_mm256_setzero_pd(); 3];
+        let mut broke = 0;
+        let mut b = 0;
+        while b + 4 <= nb.neighbors.len() {
+            let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            let keep = fail_and_keep(nb, b, len, l, &mut broke);
+            let j = |lane: usize| nb.neighbors[b + lane] as usize;
+            let theta_j = _mm256_set_pd(theta[j(3)], theta[j(2)], theta[j(1)], theta[j(0)]);
+            let inv_m_j = _mm256_set_pd(inv_m[j(3)], inv_m[j(2)], inv_m[j(1)], inv_m[j(0)]);
+            let (om, e, p) = (omega(law, l), _mm256_sub_pd(len, l), phi(w, l));
+            let ti = state(theta_i, inv_m_i, om, e, l);
+            let tj = state(theta_j, inv_m_j, om, e, l);
+            let coef = _mm256_mul_pd(
+                _mm256_div_pd(
+                    _mm256_add_pd(_mm256_mul_pd(ti, p), _mm256_mul_pd(tj, p)),
+                    len,
+                ),
+                volume,
+            );
+            let coef = _mm256_and_pd(coef, keep);
+            acc[0] = _mm256_add_pd(acc[0], _mm256_mul_pd(coef, dx));
+            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(coef, dy));
+            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(coef, dz));
+            b += 4;
+        }
+        let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
+        tail(nb, b, |j, l, d, len| {
+            let (om, e, p) = (law.omega(l), len - l, w.phi(l));
+            let ti = law.state(inv_m[i], theta[i], om, e, l);
+            let tj = law.state(inv_m[j], theta[j], om, e, l);
+            let coef = (ti * p + tj * p) / len * w.node.volume;
+            for k in 0..3 {
+                f[k] += coef * d[k];
+            }
+        });
+        debug_assert_eq!(broke, 0, "the LPS force pass does not decide failure");
+        f
     }
 }
