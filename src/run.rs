@@ -261,8 +261,10 @@ pub fn prepare<const D: usize, M: Material<D>>(
         dt_stable: sim.dt_stable,
         steps,
         end_time: steps as f64 * sim.dt,
-        memory_bytes: nodes * per_node + sim.bonds.len() * crate::bonds::Bonds::BYTES_PER_BOND,
-        bytes_per_bond: crate::bonds::Bonds::BYTES_PER_BOND,
+        memory_bytes: nodes * per_node
+            + sim.bonds.len()
+                * (crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond()),
+        bytes_per_bond: crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond(),
     };
     Ok((sim, report))
 }

@@ -54,7 +54,7 @@ fn separation_energy<const D: usize>(
                 continue;
             }
             let l = sim.bonds.ref_lengths[b];
-            let phi = sim.engine.quad.phi(l, sim.body.horizons[i], j);
+            let phi = sim.engine.quad.phi_pair(b, i, j, l).0;
             let g = BondGeom {
                 ref_len: l,
                 len: l * (1.0 + s0),

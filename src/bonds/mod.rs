@@ -5,6 +5,7 @@
 //! Per bond we keep a `u32` neighbour index and the `f64` reference length; the bond status
 //! byte lives in `State` (13 bytes per directed bond in all).
 
+pub mod overlap;
 pub mod partial_volume;
 pub mod precrack;
 pub mod search;

@@ -13,14 +13,19 @@ pub enum PartialVolume {
     Hhb,
     /// Whole volume if |ξ| ≤ δ, nothing otherwise.
     None,
+    /// The exact fraction of the neighbour's cell (square/cube of side r_j) inside the horizon
+    /// ball, computed once per bond (`overlap.rs`) and stored as a byte per direction
+    /// (resolution 1/255). More accurate than HHB in 3D, at 2 bytes per bond.
+    Exact,
 }
 
 impl PartialVolume {
     /// Search radius beyond δ that can still give a non-zero factor.
-    pub fn reach(self, cell_size: f64) -> f64 {
+    pub fn reach(self, cell_size: f64, dim: usize) -> f64 {
         match self {
             PartialVolume::Hhb => 0.5 * cell_size,
             PartialVolume::None => 0.0,
+            PartialVolume::Exact => 0.5 * cell_size * (dim as f64).sqrt(),
         }
     }
 
@@ -31,7 +36,7 @@ impl PartialVolume {
     pub fn factor(self, len: f64, horizon: f64, cell_size: f64) -> f64 {
         match self {
             PartialVolume::Hhb => ((horizon + 0.5 * cell_size - len) / cell_size).clamp(0.0, 1.0),
-            PartialVolume::None => {
+            PartialVolume::None | PartialVolume::Exact => {
                 if len <= horizon {
                     1.0
                 } else {
@@ -60,6 +65,8 @@ pub struct Quadrature {
     pub nodes: Vec<NodeWeight>,
     /// Set when every node has the same volume, cell size and horizon.
     uniform: Option<NodeWeight>,
+    /// Exact rule only: (φ_ij, φ_ji) of each directed bond, in 1/255.
+    stored: Vec<[u8; 2]>,
 }
 
 /// Quadrature weights of a uniform grid: φ depends on |ξ| only.
@@ -76,7 +83,7 @@ impl UniformWeights {
         let n = &self.node;
         match self.rule {
             PartialVolume::Hhb => ((n.horizon + n.half_cell - len) * n.inv_cell).clamp(0.0, 1.0),
-            PartialVolume::None => {
+            PartialVolume::None | PartialVolume::Exact => {
                 if len <= n.horizon {
                     1.0
                 } else {
@@ -107,24 +114,83 @@ impl Quadrature {
             rule,
             nodes,
             uniform,
+            stored: Vec::new(),
         }
     }
 
-    /// The constant weights of a uniform grid, if the grid is uniform.
+    /// The quadrature of a body and its bonds; the exact rule computes and stores its
+    /// fractions here (cached per lattice offset on uniform grids).
+    pub fn for_body<const D: usize>(
+        rule: PartialVolume,
+        body: &crate::body::Body<D>,
+        bonds: &super::Bonds,
+    ) -> Self {
+        let mut q = Self::new(rule, &body.volumes, &body.cell_sizes, &body.horizons);
+        if rule == PartialVolume::Exact {
+            let mut lattice = q
+                .uniform
+                .map(|n| super::overlap::LatticeFractions::new(2.0 * n.half_cell, n.horizon));
+            let mut fraction = |offset: &[f64], cell: f64, horizon: f64| match &mut lattice {
+                Some(l) => l.fraction(offset),
+                None => super::overlap::cell_fraction(offset, cell, horizon),
+            };
+            let quantise = |phi: f64| (phi * 255.0).round() as u8;
+            q.stored = Vec::with_capacity(bonds.len());
+            for i in 0..body.len() {
+                for b in bonds.family(i) {
+                    let j = bonds.neighbors[b] as usize;
+                    let xi = body.positions[j] - body.positions[i];
+                    let ij = fraction(xi.as_slice(), body.cell_sizes[j], body.horizons[i]);
+                    let ji = fraction((-xi).as_slice(), body.cell_sizes[i], body.horizons[j]);
+                    q.stored.push([quantise(ij), quantise(ji)]);
+                }
+            }
+        }
+        q
+    }
+
+    /// The constant weights of a uniform grid, if the grid is uniform and the rule depends on
+    /// |ξ| only.
     pub fn uniform(&self) -> Option<UniformWeights> {
+        if self.rule == PartialVolume::Exact {
+            return None;
+        }
         self.uniform.map(|node| UniformWeights {
             rule: self.rule,
             node,
         })
     }
 
-    /// Fraction of node j's cell inside a horizon `horizon` at distance `len` (φ of Eqs. 12–14).
+    /// (φ_ij, φ_ji) of bond b = i→j of reference length `len`.
     #[inline(always)]
-    pub fn phi(&self, len: f64, horizon: f64, j: usize) -> f64 {
+    pub fn phi_pair(&self, b: usize, i: usize, j: usize, len: f64) -> (f64, f64) {
+        if self.rule == PartialVolume::Exact {
+            let [ij, ji] = self.stored[b];
+            return (ij as f64 / 255.0, ji as f64 / 255.0);
+        }
+        (
+            self.phi(len, self.nodes[i].horizon, j),
+            self.phi(len, self.nodes[j].horizon, i),
+        )
+    }
+
+    /// Bytes per directed bond this rule stores.
+    pub fn bytes_per_bond(&self) -> usize {
+        if self.rule == PartialVolume::Exact {
+            2
+        } else {
+            0
+        }
+    }
+
+    /// Fraction of node j's cell inside a horizon `horizon` at distance `len` (φ of Eqs. 12–14),
+    /// for the rules that depend on |ξ| only (use `phi_pair` for any rule).
+    #[inline(always)]
+    fn phi(&self, len: f64, horizon: f64, j: usize) -> f64 {
         let n = &self.nodes[j];
         match self.rule {
             PartialVolume::Hhb => ((horizon + n.half_cell - len) * n.inv_cell).clamp(0.0, 1.0),
-            PartialVolume::None => {
+            PartialVolume::None | PartialVolume::Exact => {
                 if len <= horizon {
                     1.0
                 } else {

@@ -25,7 +25,7 @@ pub fn build_bonds<const D: usize>(
         };
     }
     let max_reach =
-        body.max_horizon() + rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max));
+        body.max_horizon() + rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max), D);
     let grid = CellGrid::new(body, max_reach);
 
     let chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..n)
@@ -44,10 +44,10 @@ pub fn build_bonds<const D: usize>(
                         return;
                     }
                     let len = (body.positions[j] - xi).norm();
-                    let reach_ij = body.horizons[i] + rule.reach(body.cell_sizes[j]);
-                    let reach_ji = body.horizons[j] + rule.reach(body.cell_sizes[i]);
+                    let reach_ij = body.horizons[i] + rule.reach(body.cell_sizes[j], D);
+                    let reach_ji = body.horizons[j] + rule.reach(body.cell_sizes[i], D);
                     let inside = match rule {
-                        PartialVolume::Hhb => len < reach_ij.max(reach_ji),
+                        PartialVolume::Hhb | PartialVolume::Exact => len < reach_ij.max(reach_ji),
                         PartialVolume::None => len <= reach_ij.max(reach_ji),
                     };
                     if inside

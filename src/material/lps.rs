@@ -150,7 +150,7 @@ impl<const D: usize> Material<D> for Lps {
                     .map(|b| {
                         let l = bonds.ref_lengths[b];
                         let j = bonds.neighbors[b] as usize;
-                        self.omega(l) * l * l * quad.phi(l, body.horizons[i], j) * body.volumes[j]
+                        self.omega(l) * l * l * quad.phi_pair(b, i, j, l).0 * body.volumes[j]
                     })
                     .sum::<f64>()
             })

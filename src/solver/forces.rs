@@ -34,27 +34,26 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
 /// uniform grid (one monomorphised loop each, written once).
 trait Weights: Sync {
     /// Geometry of bond i→j of reference length `ref_len` and current length `len`.
-    fn geom(&self, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom;
+    fn geom(&self, b: usize, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom;
 }
 
 impl Weights for Quadrature {
     #[inline(always)]
-    fn geom(&self, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
-        let nj = &self.nodes[j];
-        let ni = &self.nodes[i];
+    fn geom(&self, b: usize, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
+        let (phi_ij, phi_ji) = self.phi_pair(b, i, j, ref_len);
         BondGeom {
             ref_len,
             len,
-            phi_ij: self.phi(ref_len, ni.horizon, j),
-            phi_ji: self.phi(ref_len, nj.horizon, i),
-            vol_j: nj.volume,
+            phi_ij,
+            phi_ji,
+            vol_j: self.nodes[j].volume,
         }
     }
 }
 
 impl Weights for UniformWeights {
     #[inline(always)]
-    fn geom(&self, _i: usize, _j: usize, ref_len: f64, len: f64) -> BondGeom {
+    fn geom(&self, _b: usize, _i: usize, _j: usize, ref_len: f64, len: f64) -> BondGeom {
         let phi = self.phi(ref_len);
         BondGeom {
             ref_len,
@@ -69,12 +68,14 @@ impl Weights for UniformWeights {
 /// The family of one node, as the bond loops walk it.
 struct Family<'a> {
     i: usize,
+    /// Global index of the first bond of the family.
+    first: usize,
     neighbors: &'a [u32],
     ref_lengths: &'a [f64],
 }
 
 impl Family<'_> {
-    /// Calls `f(j, |ξ|, y_j − y_i, |y_j − y_i|)` for every intact bond. With `failure =
+    /// Calls `f(b, j, |ξ|, y_j − y_i, |y_j − y_i|)` for every intact bond b = i→j. With `failure =
     /// Some((s0, no_fail))` it first breaks, irreversibly, each bond whose stretch exceeds s0
     /// unless an end is in a no-fail set; the stretch is bitwise the same from either end, so
     /// breakage is symmetric. Returns the number of bonds broken.
@@ -84,11 +85,17 @@ impl Family<'_> {
         current: &[Vector<D>],
         status: &mut [u8],
         failure: Option<(f64, &[bool])>,
-        mut f: impl FnMut(usize, f64, Vector<D>, f64),
+        mut f: impl FnMut(usize, usize, f64, Vector<D>, f64),
     ) -> u64 {
         let yi = current[self.i];
         let mut broke = 0;
-        for ((&j, &ref_len), st) in self.neighbors.iter().zip(self.ref_lengths).zip(status) {
+        for (slot, ((&j, &ref_len), st)) in self
+            .neighbors
+            .iter()
+            .zip(self.ref_lengths)
+            .zip(status)
+            .enumerate()
+        {
             if *st != INTACT {
                 continue;
             }
@@ -102,7 +109,7 @@ impl Family<'_> {
                     continue;
                 }
             }
-            f(j, ref_len, y, len);
+            f(self.first + slot, j, ref_len, y, len);
         }
         broke
     }
@@ -123,7 +130,7 @@ fn split_at_ends<T>(mut data: &mut [T], ends: impl Iterator<Item = usize>) -> Ve
 
 impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     pub fn new(mut material: M, body: &Body<D>, bonds: &Bonds, rule: PartialVolume) -> Self {
-        let quad = Quadrature::new(rule, &body.volumes, &body.cell_sizes, &body.horizons);
+        let quad = Quadrature::for_body(rule, body, bonds);
         material.setup(body, bonds, &quad);
         let n = body.len();
         let chunks = (0..n)
@@ -142,8 +149,8 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     }
 
     #[inline(always)]
-    fn geom(&self, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
-        self.quad.geom(i, j, ref_len, len)
+    fn geom(&self, b: usize, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
+        self.quad.geom(b, i, j, ref_len, len)
     }
 
     /// Evaluates failure and internal force densities into `state.force`; returns the number
@@ -235,6 +242,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         let mut acc = M::Point::default();
                         let family = Family {
                             i,
+                            first: r.start,
                             neighbors: &bonds.neighbors[r.clone()],
                             ref_lengths: &bonds.ref_lengths[r.clone()],
                         };
@@ -242,8 +250,8 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             current,
                             status,
                             Some((s0, no_fail)),
-                            |j, ref_len, _, len| {
-                                material.accumulate(&mut acc, &weights.geom(i, j, ref_len, len));
+                            |b, j, ref_len, _, len| {
+                                material.accumulate(&mut acc, &weights.geom(b, i, j, ref_len, len));
                             },
                         );
                         points[k] = material.finish_point(i, acc);
@@ -296,17 +304,19 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let mut f = Vector::<D>::zeros();
                     let family = Family {
                         i,
+                        first: r.start,
                         neighbors: &bonds.neighbors[r.clone()],
                         ref_lengths: &bonds.ref_lengths[r.clone()],
                     };
-                    broke += family.visit_intact(current, status, failure, |j, ref_len, y, len| {
-                        if len > 0.0 {
-                            let g = weights.geom(i, j, ref_len, len);
-                            f += y
-                                * (material.pair_force_per_length(i, j, &g, pi, &points[j])
-                                    * g.vol_j);
-                        }
-                    });
+                    broke +=
+                        family.visit_intact(current, status, failure, |b, j, ref_len, y, len| {
+                            if len > 0.0 {
+                                let g = weights.geom(b, i, j, ref_len, len);
+                                f += y
+                                    * (material.pair_force_per_length(i, j, &g, pi, &points[j])
+                                        * g.vol_j);
+                            }
+                        });
                     forces[k] = f;
                 }
                 broke
@@ -332,7 +342,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let len = (state.current[j] - state.current[i]).norm();
                     sum += self.material.bond_energy(
                         i,
-                        &self.geom(i, j, bonds.ref_lengths[b], len),
+                        &self.geom(b, i, j, bonds.ref_lengths[b], len),
                         pi,
                     );
                 }
@@ -359,7 +369,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             let j = bonds.neighbors[b] as usize;
             let y = state.current[j] - state.current[i];
             let xi = body.positions[j] - body.positions[i];
-            let g = self.geom(i, j, bonds.ref_lengths[b], y.norm());
+            let g = self.geom(b, i, j, bonds.ref_lengths[b], y.norm());
             let t = self.material.force_state(i, &g, pi) * g.weight();
             for a in 0..D {
                 for c in 0..D {
@@ -388,8 +398,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 let (mut broken, mut total) = (0.0, 0.0);
                 for b in bonds.family(i) {
                     let j = bonds.neighbors[b] as usize;
-                    let w =
-                        self.quad.phi(bonds.ref_lengths[b], body.horizons[i], j) * body.volumes[j];
+                    let w = self.quad.phi_pair(b, i, j, bonds.ref_lengths[b]).0 * body.volumes[j];
                     total += w;
                     if state.status[b] != INTACT {
                         broken += w;
@@ -417,7 +426,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         let j = bonds.neighbors[b] as usize;
                         let l = bonds.ref_lengths[b];
                         self.material.bond_stiffness(l)
-                            * self.quad.phi(l, body.horizons[i], j)
+                            * self.quad.phi_pair(b, i, j, l).0
                             * body.volumes[j]
                     })
                     .sum();

@@ -260,7 +260,8 @@ mod avx {
                 ),
                 _mm256_set1_pd(1.0),
             ),
-            PartialVolume::None => _mm256_and_pd(
+            // `uniform()` is never Some for the exact rule, so it does not reach the kernels.
+            PartialVolume::None | PartialVolume::Exact => _mm256_and_pd(
                 _mm256_cmp_pd::<_CMP_LE_OQ>(l, _mm256_set1_pd(n.horizon)),
                 _mm256_set1_pd(1.0),
             ),
