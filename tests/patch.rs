@@ -10,6 +10,13 @@ use peridyn::material::{Dimensionality, Elasticity, Material, MicromodulusProfil
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
 
+/// The dimensionalities every test covers.
+const DIMENSIONALITIES: [(Dimensionality, &str); 3] = [
+    (Dimensionality::PlaneStress, "plane stress"),
+    (Dimensionality::PlaneStrain, "plane strain"),
+    (Dimensionality::ThreeD, "3D"),
+];
+
 /// Strain states probed: uniaxial, pure shear, biaxial.
 fn strains(dim: usize) -> Vec<[[f64; 3]; 3]> {
     let e = 1e-6;
@@ -28,17 +35,9 @@ fn strains(dim: usize) -> Vec<[[f64; 3]; 3]> {
     out
 }
 
-/// Applies u = ε x to every node, evaluates forces, and returns the simulation.
+/// Applies u = ε x to every node (bonds built with partial-volume `rule`), evaluates forces,
+/// and returns the simulation with its centre node.
 fn deformed<const D: usize, M: Material<D>>(
-    m: f64,
-    n: usize,
-    material: M,
-    strain: &[[f64; 3]; 3],
-) -> (Simulation<D, M>, usize) {
-    deformed_with(m, n, material, strain, PartialVolume::Hhb)
-}
-
-fn deformed_with<const D: usize, M: Material<D>>(
     m: f64,
     n: usize,
     material: M,
@@ -58,11 +57,7 @@ fn deformed_with<const D: usize, M: Material<D>>(
     (sim, centre)
 }
 
-fn energy_error<const D: usize>(dim: Dimensionality, m: f64, strain: &[[f64; 3]; 3]) -> f64 {
-    energy_error_with::<D>(dim, m, strain, PartialVolume::Hhb)
-}
-
-fn energy_error_with<const D: usize>(
+fn energy_error<const D: usize>(
     dim: Dimensionality,
     m: f64,
     strain: &[[f64; 3]; 3],
@@ -72,7 +67,7 @@ fn energy_error_with<const D: usize>(
     let material = pmb(dim, 70e9, h, MicromodulusProfile::Constant, f64::INFINITY);
     let el = Material::<D>::elasticity(&material);
     let n = (2.0 * m).ceil() as usize * 2 + 3;
-    let (sim, c) = deformed_with::<D, _>(m, n, material, strain, rule);
+    let (sim, c) = deformed::<D, _>(m, n, material, strain, rule);
     let w = sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c];
     let classical = el.energy_density(strain, D);
     w / classical - 1.0
@@ -80,17 +75,13 @@ fn energy_error_with<const D: usize>(
 
 #[test]
 fn pmb_bulk_energy_density_matches_classical() {
-    for (dim, name) in [
-        (Dimensionality::PlaneStress, "plane stress"),
-        (Dimensionality::PlaneStrain, "plane strain"),
-        (Dimensionality::ThreeD, "3D"),
-    ] {
+    for (dim, name) in DIMENSIONALITIES {
         for m in [3.0, 4.0, 5.0, 6.0] {
             for (k, strain) in strains(dim.dim()).iter().enumerate() {
                 let err = if dim.dim() == 2 {
-                    energy_error::<2>(dim, m, strain)
+                    energy_error::<2>(dim, m, strain, PartialVolume::Hhb)
                 } else {
-                    energy_error::<3>(dim, m, strain)
+                    energy_error::<3>(dim, m, strain, PartialVolume::Hhb)
                 };
                 println!(
                     "PMB {name:12} δ/Δx = {m}: strain state {k}: W_PD/W_classical − 1 = {err:+.4}"
@@ -114,17 +105,13 @@ fn pmb_bulk_energy_density_matches_classical() {
 /// and 3D alike.
 #[test]
 fn pmb_bulk_energy_density_with_exact_partial_volumes() {
-    for (dim, name) in [
-        (Dimensionality::PlaneStress, "plane stress"),
-        (Dimensionality::PlaneStrain, "plane strain"),
-        (Dimensionality::ThreeD, "3D"),
-    ] {
+    for (dim, name) in DIMENSIONALITIES {
         for m in [3.0, 4.0, 5.0] {
             for (k, strain) in strains(dim.dim()).iter().enumerate() {
                 let err = if dim.dim() == 2 {
-                    energy_error_with::<2>(dim, m, strain, PartialVolume::Exact)
+                    energy_error::<2>(dim, m, strain, PartialVolume::Exact)
                 } else {
-                    energy_error_with::<3>(dim, m, strain, PartialVolume::Exact)
+                    energy_error::<3>(dim, m, strain, PartialVolume::Exact)
                 };
                 println!("PMB exact {name:12} δ/Δx = {m}: strain state {k}: W_PD/W_classical − 1 = {err:+.4}");
                 if m >= 4.0 {
@@ -151,7 +138,7 @@ fn conical_profile_bulk_energy_matches_classical() {
         f64::INFINITY,
     );
     let el = Material::<2>::elasticity(&material);
-    let (sim, c) = deformed::<2, _>(m, 19, material, &strain);
+    let (sim, c) = deformed::<2, _>(m, 19, material, &strain, PartialVolume::Hhb);
     let w = sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c];
     let err = w / el.energy_density(&strain, 2) - 1.0;
     println!("PMB conical plane stress δ/Δx = 4: error {err:+.4}");
@@ -172,7 +159,7 @@ fn lps_stress_error<const D: usize>(
         dimensionality: dim,
     };
     let n = (2.0 * m).ceil() as usize * 2 + 3;
-    let (sim, c) = deformed::<D, _>(m, n, material, strain);
+    let (sim, c) = deformed::<D, _>(m, n, material, strain, PartialVolume::Hhb);
     let sigma = sim.engine.stress(&sim.body, &sim.bonds, &sim.state, c);
     let hooke = el.stress(strain, D);
     let scale = (0..D)
@@ -187,11 +174,7 @@ fn lps_stress_error<const D: usize>(
 
 #[test]
 fn lps_bulk_stress_matches_hooke() {
-    for (dim, name) in [
-        (Dimensionality::PlaneStress, "plane stress"),
-        (Dimensionality::PlaneStrain, "plane strain"),
-        (Dimensionality::ThreeD, "3D"),
-    ] {
+    for (dim, name) in DIMENSIONALITIES {
         for nu in [0.2, 0.35, 0.45] {
             for m in [3.0, 4.0] {
                 for (k, strain) in strains(dim.dim()).iter().enumerate() {
@@ -230,13 +213,13 @@ fn lps_bulk_energy_matches_classical() {
                 dimensionality: dim,
             };
             let (w, classical) = if dim.dim() == 2 {
-                let (sim, c) = deformed::<2, _>(m, 19, material, &strain);
+                let (sim, c) = deformed::<2, _>(m, 19, material, &strain, PartialVolume::Hhb);
                 (
                     sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c],
                     el.energy_density(&strain, 2),
                 )
             } else {
-                let (sim, c) = deformed::<3, _>(m, 19, material, &strain);
+                let (sim, c) = deformed::<3, _>(m, 19, material, &strain, PartialVolume::Hhb);
                 (
                     sim.engine.energy_density(&sim.body, &sim.bonds, &sim.state)[c],
                     el.energy_density(&strain, 3),

@@ -221,15 +221,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         let r = bonds.family(i);
                         let status = &mut status[r.start - base..r.end - base];
                         if let Some(w) = &vector {
-                            let mut nb = NodeBonds {
-                                i,
-                                current: flat,
-                                neighbors: &bonds.neighbors[r.clone()],
-                                ref_lengths: &bonds.ref_lengths[r.clone()],
-                                status,
-                                no_fail,
-                                s0: Some(s0),
-                            };
+                            let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
                             // SAFETY: AVX2 is available and neighbour indices are in bounds.
                             if let Some((p, nb_broken)) =
                                 unsafe { material.vector_prepass(&mut nb, w) }
@@ -282,15 +274,8 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let r = bonds.family(i);
                     let status = &mut status[r.start - base..r.end - base];
                     if let Some(w) = &vector {
-                        let mut nb = NodeBonds {
-                            i,
-                            current: flat,
-                            neighbors: &bonds.neighbors[r.clone()],
-                            ref_lengths: &bonds.ref_lengths[r.clone()],
-                            status,
-                            no_fail,
-                            s0: failure.map(|f| f.0),
-                        };
+                        let mut nb =
+                            NodeBonds::of(i, flat, bonds, status, no_fail, failure.map(|f| f.0));
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
                         if let Some((f, nb_broken)) =
                             unsafe { material.vector_force(&mut nb, w, points) }

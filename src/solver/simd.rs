@@ -33,6 +33,29 @@ pub struct NodeBonds<'a> {
     pub s0: Option<f64>,
 }
 
+impl<'a> NodeBonds<'a> {
+    /// Node i's family; `status` is the slice of its bonds' status bytes.
+    pub fn of(
+        i: usize,
+        current: &'a [f64],
+        bonds: &'a crate::bonds::Bonds,
+        status: &'a mut [u8],
+        no_fail: &'a [bool],
+        s0: Option<f64>,
+    ) -> Self {
+        let r = bonds.family(i);
+        NodeBonds {
+            i,
+            current,
+            neighbors: &bonds.neighbors[r.clone()],
+            ref_lengths: &bonds.ref_lengths[r],
+            status,
+            no_fail,
+            s0,
+        }
+    }
+}
+
 /// Constants of a PMB bond law (seed 001, Eq. 4), per unit volume².
 #[derive(Debug, Clone, Copy)]
 pub struct PmbLaw {
@@ -268,6 +291,16 @@ mod avx {
         }
     }
 
+    /// acc += coef · (dx, dy, dz) on the lanes in `keep`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn add_force(acc: &mut [__m256d; 3], coef: __m256d, keep: __m256d, d: [__m256d; 3]) {
+        let coef = _mm256_and_pd(coef, keep);
+        for a in 0..3 {
+            acc[a] = _mm256_add_pd(acc[a], _mm256_mul_pd(coef, d[a]));
+        }
+    }
+
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn sum(v: __m256d) -> f64 {
@@ -328,10 +361,7 @@ mod avx {
                 ),
                 volume,
             );
-            let coef = _mm256_and_pd(coef, keep);
-            acc[0] = _mm256_add_pd(acc[0], _mm256_mul_pd(coef, dx));
-            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(coef, dy));
-            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(coef, dz));
+            add_force(&mut acc, coef, keep, [dx, dy, dz]);
             b += 4;
         }
         let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
@@ -435,10 +465,7 @@ mod avx {
                 ),
                 volume,
             );
-            let coef = _mm256_and_pd(coef, keep);
-            acc[0] = _mm256_add_pd(acc[0], _mm256_mul_pd(coef, dx));
-            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(coef, dy));
-            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(coef, dz));
+            add_force(&mut acc, coef, keep, [dx, dy, dz]);
             b += 4;
         }
         let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
