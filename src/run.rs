@@ -353,7 +353,7 @@ fn run_model<const D: usize, M: Material<D>>(
         out_dir: out.clone(),
         report,
     };
-    crate::observe::atomic::write_atomic(
+    crate::atomic_file::write_atomic(
         &out.join("summary.txt"),
         format!("{summary}\n").as_bytes(),
     )?;
@@ -424,6 +424,6 @@ fn write_resolved(
     let derived = toml::to_string(&Derived { derived: report })
         .map_err(|e| std::io::Error::other(e.to_string()))?;
     let text = format!("# Resolved deck written by peridyn {} from {}\n# Every default is filled in; [derived] holds the constants computed from it.\n\n{deck}\n{derived}", env!("CARGO_PKG_VERSION"), ld.file.display());
-    crate::observe::atomic::write_atomic(&out.join("resolved.toml"), text.as_bytes())?;
+    crate::atomic_file::write_atomic(&out.join("resolved.toml"), text.as_bytes())?;
     Ok(())
 }

@@ -6,7 +6,7 @@ use super::{BondGeom, Dimensionality, Elasticity, Material};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
-use crate::solver::simd::{self, NodeBonds};
+use super::simd::{self, NodeBonds};
 use serde::{Deserialize, Serialize};
 
 /// Influence function ω(|ξ|).

@@ -7,6 +7,7 @@
 pub mod calibration;
 pub mod lps;
 pub mod pmb;
+pub mod simd;
 
 pub use calibration::{Dimensionality, Elasticity};
 pub use lps::Lps;
@@ -15,7 +16,7 @@ pub use pmb::{MicromodulusProfile, Pmb};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
-use crate::solver::simd::NodeBonds;
+use simd::NodeBonds;
 
 /// Geometry of one directed bond i→j at the current configuration.
 #[derive(Debug, Clone, Copy)]

@@ -3,7 +3,7 @@
 
 use super::{BondGeom, Dimensionality, Elasticity, Material};
 use crate::bonds::partial_volume::UniformWeights;
-use crate::solver::simd::{self, NodeBonds};
+use super::simd::{self, NodeBonds};
 use serde::{Deserialize, Serialize};
 
 /// Shape of the micromodulus along the bond, c(ξ) = c0 · g(ξ).

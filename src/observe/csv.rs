@@ -8,7 +8,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use super::atomic;
+use crate::atomic_file as atomic;
 
 /// Minimum wall-clock time between two automatic rewrites in `push`.
 const AUTO_FLUSH_INTERVAL: Duration = Duration::from_secs(1);

@@ -1,6 +1,5 @@
 //! Observers of a run and the file writers they use.
 
-pub mod atomic;
 pub mod csv;
 pub mod history;
 pub mod observer;

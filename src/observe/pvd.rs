@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::atomic;
+use crate::atomic_file as atomic;
 
 /// A time series of snapshot files, kept in memory and mirrored to disk.
 #[derive(Debug, Clone)]

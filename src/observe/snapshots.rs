@@ -113,7 +113,7 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
                 .map_err(|e| io::Error::other(e.to_string()))?;
             // The latest map, also replaced atomically.
             let bytes = std::fs::read(&path).map_err(|e| with_path(e, &path))?;
-            super::atomic::write_atomic(&self.dir.join("damage.png"), &bytes)?;
+            crate::atomic_file::write_atomic(&self.dir.join("damage.png"), &bytes)?;
         }
         Ok(())
     }

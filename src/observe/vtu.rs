@@ -10,7 +10,7 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
 
-use super::atomic;
+use crate::atomic_file as atomic;
 
 /// Values of one nodal field; all slices are in node order.
 #[derive(Debug, Clone, Copy)]

@@ -156,7 +156,7 @@ pub(crate) fn render_curves(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::observe::atomic;
+    use crate::atomic_file as atomic;
     use std::fs;
 
     fn count_colour(rgb: &[u8], c: RGBColor) -> usize {

@@ -19,7 +19,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::font;
-use crate::observe::atomic;
+use crate::atomic_file as atomic;
 
 /// Error of the PNG plot writers; every variant names the output file.
 #[derive(Debug, thiserror::Error)]

@@ -4,7 +4,7 @@
 //! Parallelism is gather-style over node chunks: each node sums its own family in a fixed
 //! order, so results are bitwise identical for any number of threads.
 
-use super::simd::{self, NodeBonds};
+use crate::material::simd::{self, NodeBonds};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};

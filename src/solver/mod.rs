@@ -1,7 +1,6 @@
 //! Solvers: the force engine and the explicit velocity-Verlet integrator.
 
 pub mod forces;
-pub mod simd;
 pub mod verlet;
 
 pub use forces::ForceEngine;
