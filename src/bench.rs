@@ -4,11 +4,13 @@
 
 use crate::body::Body;
 use crate::bonds::{search::build_bonds, Bonds, PartialVolume};
+use crate::damage::CriticalStretch;
 use crate::discretize::lattice::lattice;
 use crate::geometry::Shape;
 use crate::loading::Loading;
-use crate::material::lps::Influence;
-use crate::material::{Dimensionality, Elasticity, Lps, Material, MicromodulusProfile, Pmb};
+use crate::material::{
+    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+};
 use crate::solver::Simulation;
 use std::time::Instant;
 
@@ -49,7 +51,17 @@ fn measure<const D: usize, M: Material<D>>(
         .build()
         .expect("thread pool");
     pool.install(|| {
-        let mut sim = Simulation::new(body, bonds, material, rule, Loading::default(), None, 0.8);
+        let mut sim = Simulation::new(
+            body,
+            bonds,
+            material,
+            CriticalStretch::never(),
+            rule,
+            Loading::default(),
+            None,
+            0.8,
+        )
+        .expect("benchmark model");
         // A small random-free initial velocity field so the loop does real work.
         for (i, v) in sim.state.v.iter_mut().enumerate() {
             v[0] = 1e-3 * ((i % 7) as f64 - 3.0);
@@ -83,7 +95,6 @@ fn measure<const D: usize, M: Material<D>>(
 fn pmb<const D: usize>(dim: Dimensionality, horizon: f64) -> Pmb {
     Pmb::calibrated(
         70e9,
-        None,
         2500.0,
         dim,
         MicromodulusProfile::Constant,
@@ -101,14 +112,25 @@ fn lps(dim: Dimensionality, horizon: f64) -> Lps {
         },
         Influence::Constant,
         horizon,
-        f64::INFINITY,
         2500.0,
         1e-3,
     )
 }
 
 /// Runs every case and prints a table; returns the results.
-pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec<BenchResult> {
+pub fn run_benchmarks(
+    target_bonds: usize,
+    steps: u64,
+    threads: &[usize],
+    only: &[String],
+) -> Result<Vec<BenchResult>, String> {
+    const CASES: [&str; 5] = ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d", "pmb-3d-nopv"];
+    if let Some(bad) = only.iter().find(|c| !CASES.contains(&c.as_str())) {
+        return Err(format!(
+            "unknown benchmark case {bad:?}; cases: {}",
+            CASES.join(", ")
+        ));
+    }
     let cores = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
@@ -127,7 +149,10 @@ pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec
         "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond"
     );
     for &t in &threads {
-        for case in ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d", "pmb-3d-nopv"] {
+        for case in CASES
+            .into_iter()
+            .filter(|c| only.is_empty() || only.iter().any(|o| o == c))
+        {
             // "-nopv": whole volumes inside δ only (no partial-volume band), the ~122 bonds per
             // node of δ/Δx = 3 that other codes quote.
             let rule = if case.ends_with("nopv") {
@@ -190,5 +215,5 @@ pub fn run_benchmarks(target_bonds: usize, steps: u64, threads: &[usize]) -> Vec
             results.push(r);
         }
     }
-    results
+    Ok(results)
 }

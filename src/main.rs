@@ -49,6 +49,9 @@ enum Command {
         /// Thread counts to measure, comma separated (default: 1 and all cores).
         #[arg(long, value_delimiter = ',')]
         threads: Vec<usize>,
+        /// Cases to measure, comma separated (default: all; `peridyn bench --cases list` names them).
+        #[arg(long, value_delimiter = ',')]
+        cases: Vec<String>,
     },
 }
 
@@ -89,10 +92,8 @@ fn main() -> ExitCode {
             bonds,
             steps,
             threads,
-        } => {
-            peridyn::bench::run_benchmarks(bonds, steps, &threads);
-            Ok(())
-        }
+            cases,
+        } => peridyn::bench::run_benchmarks(bonds, steps, &threads, &cases).map(|_| ()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,13 +1,18 @@
 //! Dispatch-once: the deck's dimension and material pick `run_model::<D, M>()`; everything
 //! below is monomorphised. Also `check` (build and report without stepping).
 
-use crate::deck::build::{build_material, build_model, explicit_settings, MaterialChoice, Model};
+use crate::damage::Damage;
+use crate::deck::build::{
+    build_constitution, build_model, explicit_settings, Constitution, MaterialChoice,
+    MaterialReport, Model,
+};
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use crate::material::{Elasticity, Material};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
 use crate::observe::snapshots::Snapshots;
 use crate::observe::{Observer, StepView};
+use crate::solver::Fields;
 use crate::solver::{Simulation, StepError};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -39,7 +44,10 @@ pub struct RunOptions {
 #[derive(Debug, Clone, Serialize)]
 pub struct ModelReport {
     pub dimension: usize,
+    /// The model(s) in use: "pmb", "lps", "correspondence", or several joined by " + ".
     pub model: String,
+    /// The damage law(s) in use.
+    pub damage: String,
     pub nodes: usize,
     /// Physical bonds (each counted once).
     pub bonds: usize,
@@ -49,8 +57,10 @@ pub struct ModelReport {
     pub horizon_over_spacing: f64,
     pub youngs_modulus: f64,
     pub poisson_ratio: f64,
-    /// PMB micromodulus c0 as the papers write it (2D: per unit thickness); 0 for LPS.
+    /// PMB micromodulus c0 as the papers write it (2D: per unit thickness) of the first
+    /// material; 0 for state-based models.
     pub micromodulus: f64,
+    /// Critical stretch of the first material (infinite when its law has none).
     pub critical_stretch: f64,
     pub p_wave_speed: f64,
     pub dt: f64,
@@ -59,11 +69,17 @@ pub struct ModelReport {
     pub end_time: f64,
     pub memory_bytes: usize,
     pub bytes_per_bond: usize,
+    /// Every material as calibrated.
+    pub materials: Vec<MaterialReport>,
 }
 
 impl std::fmt::Display for ModelReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(f, "model            {} ({}D)", self.model, self.dimension)?;
+        writeln!(
+            f,
+            "model            {} ({}D), damage: {}",
+            self.model, self.dimension, self.damage
+        )?;
         writeln!(f, "nodes            {}", self.nodes)?;
         writeln!(
             f,
@@ -80,10 +96,41 @@ impl std::fmt::Display for ModelReport {
             "elasticity       E = {:.4e} Pa, ν = {:.4}, P-wave speed {:.1} m/s",
             self.youngs_modulus, self.poisson_ratio, self.p_wave_speed
         )?;
-        if self.micromodulus > 0.0 {
-            writeln!(f, "micromodulus c0  {:.4e}", self.micromodulus)?;
+        for m in &self.materials {
+            write!(
+                f,
+                "{:<16} {} ({} nodes): E = {:.4e} Pa, ν = {:.4}, ρ = {} kg/m³",
+                m.key, m.model, m.nodes, m.youngs_modulus, m.poisson_ratio, m.density
+            )?;
+            if let Some(c) = m.micromodulus {
+                write!(f, ", c0 = {c:.4e}")?;
+            }
+            if m.horizon_max > m.horizon_min {
+                write!(
+                    f,
+                    ", δ from {:.4e} to {:.4e} m",
+                    m.horizon_min, m.horizon_max
+                )?;
+            }
+            write!(f, "\n                 damage: {}", m.damage)?;
+            if let Some(s) = m.critical_stretch {
+                write!(f, ", s0 = {s:.5e}")?;
+            }
+            if let Some(w) = m.critical_energy {
+                write!(f, ", w_c = {w:.5e} J/m⁶")?;
+            }
+            if let (Some(s1), Some(sc)) = (m.peak_stretch, m.breaking_stretch) {
+                write!(f, ", s1 = {s1:.5e}")?;
+                if let Some(s2) = m.kink_stretch {
+                    write!(f, ", s2 = {s2:.5e}")?;
+                }
+                write!(f, ", breaking stretch {sc:.5e}")?;
+            }
+            if let Some(n) = m.prebroken_bonds {
+                write!(f, ", {n} bonds broken before loading (porosity)")?;
+            }
+            writeln!(f)?;
         }
-        writeln!(f, "critical stretch s0 = {:.5e}", self.critical_stretch)?;
         writeln!(
             f,
             "time step        dt = {:.4e} s (stable estimate {:.4e} s, ratio {:.3})",
@@ -163,10 +210,14 @@ pub fn check(ld: &LoadedDeck, threads: Option<usize>) -> Result<ModelReport, Run
 
 fn check_dim<const D: usize>(ld: &LoadedDeck) -> Result<ModelReport, RunError> {
     let model = build_model::<D>(ld)?;
-    match build_material(&ld.deck, model.horizon) {
-        MaterialChoice::Pmb(m) => Ok(prepare(ld, model, m)?.1),
-        MaterialChoice::Lps(m) => Ok(prepare(ld, model, m)?.1),
-    }
+    let c = build_constitution(ld, &model)?;
+    let (material, rest) = c.split();
+    Ok(match material {
+        MaterialChoice::Pmb(m) => prepare(ld, model, m, rest)?.1,
+        MaterialChoice::Lps(m) => prepare(ld, model, m, rest)?.1,
+        MaterialChoice::Correspondence(m) => prepare(ld, model, m, rest)?.1,
+        MaterialChoice::Mixed(m) => prepare(ld, model, m, rest)?.1,
+    })
 }
 
 /// Runs a deck, writing results into `opts.out_dir`.
@@ -179,9 +230,34 @@ pub fn run(ld: &LoadedDeck, opts: &RunOptions) -> Result<RunSummary, RunError> {
 
 fn run_dim<const D: usize>(ld: &LoadedDeck, opts: &RunOptions) -> Result<RunSummary, RunError> {
     let model = build_model::<D>(ld)?;
-    match build_material(&ld.deck, model.horizon) {
-        MaterialChoice::Pmb(m) => run_model(ld, model, m, opts),
-        MaterialChoice::Lps(m) => run_model(ld, model, m, opts),
+    let c = build_constitution(ld, &model)?;
+    let (material, rest) = c.split();
+    match material {
+        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, opts),
+        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, opts),
+        MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, opts),
+        MaterialChoice::Mixed(m) => run_model(ld, model, m, rest, opts),
+    }
+}
+
+/// A constitution without its material: what `prepare` needs besides it.
+pub struct DamageAndReports {
+    pub damage: Damage,
+    pub reports: Vec<MaterialReport>,
+    pub porosity: Vec<(u16, crate::damage::porosity::Porosity)>,
+}
+
+impl Constitution {
+    /// The material (to dispatch on) and the rest.
+    pub fn split(self) -> (MaterialChoice, DamageAndReports) {
+        (
+            self.material,
+            DamageAndReports {
+                damage: self.damage,
+                reports: self.reports,
+                porosity: self.porosity,
+            },
+        )
     }
 }
 
@@ -190,9 +266,15 @@ pub fn prepare<const D: usize, M: Material<D>>(
     ld: &LoadedDeck,
     model: Model<D>,
     material: M,
+    rest: DamageAndReports,
 ) -> Result<(Simulation<D, M>, ModelReport), RunError> {
     let settings = explicit_settings(&ld.deck);
     let started = Instant::now();
+    let DamageAndReports {
+        damage,
+        mut reports,
+        porosity,
+    } = rest;
     let Model {
         body,
         bonds,
@@ -201,17 +283,28 @@ pub fn prepare<const D: usize, M: Material<D>>(
         horizon,
         spacing,
         initial_velocities,
+        material_of,
         ..
     } = model;
+    let history_bytes = damage.bytes_per_bond();
     let mut sim = Simulation::new(
         body,
         bonds,
         material,
+        damage,
         rule,
         loading,
         settings.dt,
         settings.safety_factor,
-    );
+    )
+    .map_err(|e| ld.locate(vec![DeckIssue::new("material", e.to_string())]))?;
+    for (k, p) in &porosity {
+        let n = p.prebreak(&sim.bonds, |i| material_of[i] == *k, &mut sim.state.status);
+        reports[*k as usize].prebroken_bonds = Some(n);
+    }
+    if !porosity.is_empty() {
+        sim.refresh_forces()?;
+    }
     if let Some(dt) = settings.dt {
         if dt > sim.dt_stable {
             return Err(ld
@@ -229,23 +322,19 @@ pub fn prepare<const D: usize, M: Material<D>>(
         .steps
         .unwrap_or_else(|| (settings.end_time.unwrap_or(0.0) / sim.dt).ceil() as u64);
     let el: Elasticity = sim.engine.material.elasticity();
-    let micromodulus = match ld.deck.material {
-        crate::deck::schema::MaterialDeck::Pmb { .. } => crate::material::Pmb::micromodulus(
-            el.youngs_modulus,
-            el.dimensionality,
-            profile_of(&ld.deck),
-            horizon,
-        ),
-        _ => 0.0,
-    };
     let nodes = sim.body.len();
-    let per_node = std::mem::size_of::<M::Point>() + 8 * D * 6 + 8 * 4 + 32 + 5;
+    let bytes_per_bond =
+        crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history_bytes;
+    let join = |f: fn(&MaterialReport) -> &str| {
+        let mut names: Vec<&str> = reports.iter().map(f).collect();
+        names.dedup();
+        names.join(" + ")
+    };
+    let first = &reports[0];
     let report = ModelReport {
         dimension: D,
-        model: match ld.deck.material {
-            crate::deck::schema::MaterialDeck::Pmb { .. } => "pmb".into(),
-            _ => "lps".into(),
-        },
+        model: join(|r| &r.model),
+        damage: join(|r| &r.damage),
         nodes,
         bonds: sim.bonds.len() / 2,
         bonds_per_node: sim.bonds.bonds_per_node(),
@@ -254,35 +343,29 @@ pub fn prepare<const D: usize, M: Material<D>>(
         horizon_over_spacing: horizon / spacing,
         youngs_modulus: el.youngs_modulus,
         poisson_ratio: el.poisson_ratio,
-        micromodulus,
-        critical_stretch: sim.engine.material.critical_stretch(),
-        p_wave_speed: (el.p_wave_modulus() / sim.engine.material.density()).sqrt(),
+        micromodulus: first.micromodulus.unwrap_or(0.0),
+        critical_stretch: first.critical_stretch.unwrap_or(f64::INFINITY),
+        p_wave_speed: (el.p_wave_modulus() / sim.densities[0]).sqrt(),
         dt: sim.dt,
         dt_stable: sim.dt_stable,
         steps,
         end_time: steps as f64 * sim.dt,
-        memory_bytes: nodes * per_node
-            + sim.bonds.len()
-                * (crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond()),
-        bytes_per_bond: crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond(),
+        memory_bytes: nodes * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>())
+            + sim.bonds.len() * bytes_per_bond,
+        bytes_per_bond,
+        materials: reports,
     };
     Ok((sim, report))
-}
-
-fn profile_of(deck: &crate::deck::Deck) -> crate::material::MicromodulusProfile {
-    match deck.material {
-        crate::deck::schema::MaterialDeck::Pmb { profile, .. } => profile,
-        _ => Default::default(),
-    }
 }
 
 fn run_model<const D: usize, M: Material<D>>(
     ld: &LoadedDeck,
     model: Model<D>,
     material: M,
+    rest: DamageAndReports,
     opts: &RunOptions,
 ) -> Result<RunSummary, RunError> {
-    let (mut sim, report) = prepare(ld, model, material)?;
+    let (mut sim, report) = prepare(ld, model, material, rest)?;
     let out = &opts.out_dir;
     std::fs::create_dir_all(out)
         .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
@@ -313,7 +396,7 @@ fn run_model<const D: usize, M: Material<D>>(
     } else {
         deck.title.clone()
     };
-    let mut observers: Vec<Box<dyn Observer<D, M>>> = vec![
+    let mut observers: Vec<Box<dyn Observer<D>>> = vec![
         Box::new(History::new::<D>(
             &out.join("history.csv"),
             history_every,
@@ -353,10 +436,7 @@ fn run_model<const D: usize, M: Material<D>>(
         out_dir: out.clone(),
         report,
     };
-    crate::atomic_file::write_atomic(
-        &out.join("summary.txt"),
-        format!("{summary}\n").as_bytes(),
-    )?;
+    crate::atomic_file::write_atomic(&out.join("summary.txt"), format!("{summary}\n").as_bytes())?;
     Ok(summary)
 }
 
@@ -364,7 +444,7 @@ fn run_model<const D: usize, M: Material<D>>(
 pub fn drive<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     steps: u64,
-    observers: &mut [Box<dyn Observer<D, M>>],
+    observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
     offer(sim, observers, steps == 0)?;
     for k in 1..=steps {
@@ -379,7 +459,7 @@ pub fn drive<const D: usize, M: Material<D>>(
 
 fn offer<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
-    observers: &mut [Box<dyn Observer<D, M>>],
+    observers: &mut [Box<dyn Observer<D>>],
     last: bool,
 ) -> Result<(), RunError> {
     let step = sim.state.step;
@@ -388,7 +468,7 @@ fn offer<const D: usize, M: Material<D>>(
     }
     let started = Instant::now();
     {
-        let view = StepView::new(sim, last);
+        let view = StepView::new(&*sim as &dyn Fields<D>, last);
         for o in observers.iter_mut() {
             if o.wants(step, last) {
                 o.observe(&view)?;

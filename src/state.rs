@@ -4,10 +4,15 @@ use crate::body::Body;
 use crate::bonds::Bonds;
 use crate::math::Vector;
 
-/// Bond status byte: intact.
+/// Status of a directed bond entry i→j, two bits for its two halves (see `damage`): both
+/// intact.
 pub const INTACT: u8 = 0;
-/// Bond status byte: broken (irreversible).
-pub const BROKEN: u8 = 1;
+/// The half owned by the entry's node (its force state T_i⟨ξ⟩) is broken.
+pub const OWN_BROKEN: u8 = 1;
+/// The half owned by the neighbour (T_j⟨−ξ⟩) is broken.
+pub const OTHER_BROKEN: u8 = 2;
+/// Both halves broken: the bond carries no force. Breakage is irreversible.
+pub const BROKEN: u8 = OWN_BROKEN | OTHER_BROKEN;
 
 /// The evolving state of a run.
 #[derive(Debug, Clone)]
@@ -24,9 +29,11 @@ pub struct State<const D: usize> {
     pub force: Vec<Vector<D>>,
     /// External body-force density of the last evaluation (N/m³).
     pub body_force: Vec<Vector<D>>,
-    /// Per directed bond: `INTACT` or `BROKEN`.
+    /// Per directed bond entry: the broken bits of its two halves.
     pub status: Vec<u8>,
-    /// Number of broken directed bonds.
+    /// Per directed bond entry: the damage law's history words (empty when it keeps none).
+    pub history: Vec<f64>,
+    /// Number of broken directed bond halves (a bond whose ends share a law counts twice).
     pub broken: u64,
     /// Work done by boundary conditions and loads since the start (J).
     pub external_work: f64,
@@ -35,8 +42,8 @@ pub struct State<const D: usize> {
 }
 
 impl<const D: usize> State<D> {
-    /// The reference state: at rest, every bond intact.
-    pub fn new(body: &Body<D>, bonds: &Bonds) -> Self {
+    /// The reference state: at rest, every bond intact, `history_words` of zeros per bond.
+    pub fn new(body: &Body<D>, bonds: &Bonds, history_words: usize) -> Self {
         let n = body.len();
         State {
             time: 0.0,
@@ -47,6 +54,7 @@ impl<const D: usize> State<D> {
             force: vec![Vector::zeros(); n],
             body_force: vec![Vector::zeros(); n],
             status: vec![INTACT; bonds.len()],
+            history: vec![0.0; bonds.len() * history_words],
             broken: 0,
             external_work: 0.0,
             dissipated_viscous: 0.0,
@@ -59,12 +67,13 @@ impl<const D: usize> State<D> {
         self.current[i] = body.positions[i] + u;
     }
 
-    /// Kinetic energy Σ ½ ρ V |v|² (J).
-    pub fn kinetic_energy(&self, body: &Body<D>, rho: f64) -> f64 {
+    /// Kinetic energy Σ ½ ρ V |v|² (J), with ρ per node.
+    pub fn kinetic_energy(&self, body: &Body<D>, densities: &[f64]) -> f64 {
         self.v
             .iter()
             .zip(&body.volumes)
-            .map(|(v, &vol)| 0.5 * rho * vol * v.norm_squared())
+            .zip(densities)
+            .map(|((v, &vol), &rho)| 0.5 * rho * vol * v.norm_squared())
             .sum()
     }
 }

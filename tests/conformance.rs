@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use peridyn::bonds::PartialVolume;
-use peridyn::loading::Loading;
+use peridyn::damage::CriticalStretch;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
@@ -22,14 +22,12 @@ fn noise(k: usize) -> f64 {
 fn sim_of<const D: usize, M: Material<D>>(material: M) -> Simulation<D, M> {
     let (body, bonds) =
         lattice_body::<D>(if D == 2 { 12 } else { 7 }, 1e-3, 3.0, PartialVolume::Hhb);
-    Simulation::new(
+    simulation(
         body,
         bonds,
         material,
+        CriticalStretch::never(),
         PartialVolume::Hhb,
-        Loading::default(),
-        None,
-        0.8,
     )
 }
 
@@ -124,10 +122,10 @@ macro_rules! for_every_model {
 }
 
 for_every_model! {
-    "pmb plane stress" => 2, pmb(Dimensionality::PlaneStress, 70e9, 3e-3, MicromodulusProfile::Constant, f64::INFINITY);
-    "pmb plane strain conical" => 2, pmb(Dimensionality::PlaneStrain, 70e9, 3e-3, MicromodulusProfile::Conical, f64::INFINITY);
-    "pmb 3D" => 3, pmb(Dimensionality::ThreeD, 70e9, 3e-3, MicromodulusProfile::Constant, f64::INFINITY);
-    "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, f64::INFINITY);
-    "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3, f64::INFINITY);
-    "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3, f64::INFINITY);
+    "pmb plane stress" => 2, pmb(Dimensionality::PlaneStress, 70e9, 3e-3, MicromodulusProfile::Constant);
+    "pmb plane strain conical" => 2, pmb(Dimensionality::PlaneStrain, 70e9, 3e-3, MicromodulusProfile::Conical);
+    "pmb 3D" => 3, pmb(Dimensionality::ThreeD, 70e9, 3e-3, MicromodulusProfile::Constant);
+    "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3);
+    "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3);
+    "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3);
 }

@@ -184,11 +184,11 @@ steps = 1
 fn initial_velocity_field_is_value_plus_gradient_and_yields_to_constraints() {
     let ld = LoadedDeck::from_str(VELOCITY_FIELD, Path::new("field.toml")).unwrap();
     let model = build_model::<2>(&ld).unwrap();
-    let material = match peridyn::deck::build::build_material(&ld.deck, model.horizon) {
-        peridyn::deck::build::MaterialChoice::Pmb(m) => m,
-        _ => unreachable!(),
+    let c = peridyn::deck::build::build_constitution(&ld, &model).unwrap();
+    let (peridyn::deck::build::MaterialChoice::Pmb(material), rest) = c.split() else {
+        unreachable!()
     };
-    let (sim, _) = peridyn::run::prepare(&ld, model, material).unwrap();
+    let (sim, _) = peridyn::run::prepare(&ld, model, material, rest).unwrap();
     let top = &sim.body.node_sets["top"];
     for i in 0..sim.body.len() {
         let x = sim.body.positions[i];

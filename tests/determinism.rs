@@ -6,13 +6,13 @@
 use peridyn::body::Body;
 use peridyn::bonds::search::build_bonds;
 use peridyn::bonds::{PartialVolume, Precrack};
+use peridyn::damage::CriticalStretch;
 use peridyn::deck::schema::{Discretization, SolverDeck};
 use peridyn::deck::LoadedDeck;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
-use peridyn::material::lps::Influence;
-use peridyn::material::{Dimensionality, Elasticity, Lps};
+use peridyn::material::{Dimensionality, Elasticity, Influence, Lps};
 use peridyn::run::{run, RunOptions};
 use peridyn::solver::Simulation;
 use std::collections::BTreeMap;
@@ -170,7 +170,7 @@ fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
             poisson_ratio: 0.3,
             dimensionality: Dimensionality::ThreeD,
         };
-        let material = Lps::new(el, Influence::Constant, delta, 2.0e-3, 1000.0, 1.0);
+        let material = Lps::new(el, Influence::Constant, delta, 1000.0, 1.0);
         let mut loading = Loading::<3>::default();
         for (nodes, v) in [(left, -2.0), (right, 2.0)] {
             loading.conditions.push(BoundaryCondition {
@@ -186,11 +186,13 @@ fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
             body,
             bonds,
             material,
+            CriticalStretch::new(2.0e-3),
             PartialVolume::Hhb,
             loading,
             None,
             0.8,
-        );
+        )
+        .unwrap();
         for _ in 0..400 {
             sim.step().unwrap();
         }

@@ -19,11 +19,13 @@
 use peridyn::body::Body;
 use peridyn::bonds::search::build_bonds;
 use peridyn::bonds::PartialVolume;
+use peridyn::damage::CriticalStretch;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::Loading;
-use peridyn::material::lps::Influence;
-use peridyn::material::{Dimensionality, Elasticity, Lps, Material, MicromodulusProfile, Pmb};
+use peridyn::material::{
+    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
 use std::f64::consts::PI;
@@ -59,16 +61,18 @@ fn run<const D: usize, M: Material<D>>(
     let body = Body::<D>::from_cloud(cloud, delta, 1.0);
     let bonds = build_bonds(&body, PartialVolume::Hhb, &[]);
     let material = make(delta);
-    let c_p = (material.elasticity().p_wave_modulus() / material.density()).sqrt();
+    let c_p = (material.elasticity().p_wave_modulus() / material.density(0)).sqrt();
     let mut sim = Simulation::new(
         body,
         bonds,
         material,
+        CriticalStretch::never(),
         PartialVolume::Hhb,
         Loading::<D>::default(),
         None,
         0.8,
-    );
+    )
+    .unwrap();
     assert!((sim.dt / sim.dt_stable - 0.8).abs() < 1e-12);
 
     // Smooth, non-rigid initial field: a displacement with strain ~1e-4 (a bending/shear-like
@@ -97,7 +101,7 @@ fn run<const D: usize, M: Material<D>>(
     // Forces consistent with the initial displacement (Simulation::new evaluated them at u = 0).
     sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
 
-    let rho = sim.engine.material.density();
+    let rho = sim.engine.material.density(0);
     let momentum = |sim: &Simulation<D, M>| -> (Vector<D>, f64) {
         let mut p = Vector::<D>::zeros();
         let mut scale = 0.0;
@@ -200,7 +204,7 @@ fn run<const D: usize, M: Material<D>>(
 fn pmb_2d_energy_and_momentum() {
     run::<2, _>("PMB 2D plane stress", 30, 3.0, |delta| {
         let dim = Dimensionality::PlaneStress;
-        Pmb::calibrated(E, None, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
+        Pmb::calibrated(E, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
     });
 }
 
@@ -215,7 +219,6 @@ fn lps_2d_energy_and_momentum() {
             },
             Influence::Constant,
             delta,
-            f64::INFINITY,
             RHO,
             1.0,
         )
@@ -226,6 +229,6 @@ fn lps_2d_energy_and_momentum() {
 fn pmb_3d_energy_and_momentum() {
     run::<3, _>("PMB 3D", 10, 3.0, |delta| {
         let dim = Dimensionality::ThreeD;
-        Pmb::calibrated(E, None, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
+        Pmb::calibrated(E, RHO, dim, MicromodulusProfile::Constant, delta, 1.0)
     });
 }

@@ -6,9 +6,8 @@ mod common;
 
 use common::*;
 use peridyn::bonds::PartialVolume;
-use peridyn::loading::Loading;
+use peridyn::damage::CriticalStretch;
 use peridyn::material::{BondGeom, Dimensionality, Material, MicromodulusProfile};
-use peridyn::solver::Simulation;
 
 /// Energy per unit area to break every bond crossing the plane x_{D−1} = mid, counted for bonds
 /// whose midpoint lies in the central window (away from the lateral surfaces).
@@ -19,22 +18,17 @@ fn separation_energy<const D: usize>(
 ) -> f64 {
     let (g0, e, dx) = (300.0, 3e9, 1e-3);
     let h = m * dx;
-    let material = pmb(dim, e, h, profile, f64::INFINITY);
-    let c = match dim {
-        Dimensionality::ThreeD => material.c0,
-        _ => material.c0_paper,
-    };
+    let material = pmb(dim, e, h, profile);
+    let c = material.c0_paper;
     let s0 = peridyn::material::Pmb::critical_stretch_from_g0(g0, c, dim, profile, h);
     let n = (6.0 * m) as usize + 2;
     let (body, bonds) = lattice_body::<D>(n, dx, m, PartialVolume::Hhb);
-    let sim = Simulation::new(
+    let sim = simulation(
         body,
         bonds,
         material,
+        CriticalStretch::never(),
         PartialVolume::Hhb,
-        Loading::default(),
-        None,
-        0.8,
     );
     let side = n as f64 * dx;
     let mid = 0.5 * side;
@@ -55,13 +49,7 @@ fn separation_energy<const D: usize>(
             }
             let l = sim.bonds.ref_lengths[b];
             let phi = sim.engine.quad.phi_pair(b, i, j, l).0;
-            let g = BondGeom {
-                ref_len: l,
-                len: l * (1.0 + s0),
-                phi_ij: phi,
-                phi_ji: phi,
-                vol_j: sim.body.volumes[j],
-            };
+            let g = BondGeom::<D>::intact(l, l * (1.0 + s0), phi, sim.body.volumes[j]);
             // bond_energy is node i's half of the pair micropotential, per unit volume of i.
             energy +=
                 sim.body.volumes[i] * Material::<D>::bond_energy(&sim.engine.material, i, &g, &());

@@ -1,7 +1,7 @@
 //! Failure rules on a fracturing run: no-fail sets never damage, pre-cracks open, breakage
 //! is symmetric (bond i→j breaks exactly when j→i does), broken bonds stay broken.
 
-use peridyn::deck::build::{build_material, build_model, MaterialChoice};
+use peridyn::deck::build::{build_constitution, build_model, MaterialChoice};
 use peridyn::deck::LoadedDeck;
 use peridyn::run::prepare;
 use peridyn::state::INTACT;
@@ -64,10 +64,10 @@ end_time = 12e-6
 fn no_fail_precrack_and_symmetric_breakage() {
     let ld = LoadedDeck::from_str(DECK, Path::new("fracture_rules.toml")).unwrap();
     let model = build_model::<2>(&ld).unwrap();
-    let MaterialChoice::Pmb(pmb) = build_material(&ld.deck, model.horizon) else {
+    let (MaterialChoice::Pmb(pmb), rest) = build_constitution(&ld, &model).unwrap().split() else {
         panic!("pmb expected")
     };
-    let (mut sim, report) = prepare(&ld, model, pmb).unwrap();
+    let (mut sim, report) = prepare(&ld, model, pmb, rest).unwrap();
 
     // The pre-crack filter: no bond crosses the segment.
     let crack = peridyn::bonds::Precrack::Segment {

@@ -22,7 +22,6 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
     let bonds = peridyn::bonds::search::build_bonds(&body, PartialVolume::Hhb, &[]);
     let pmb = Pmb::calibrated(
         70e9,
-        None,
         2500.0,
         Dimensionality::PlaneStress,
         MicromodulusProfile::Constant,
@@ -34,18 +33,20 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
         body,
         bonds,
         pmb,
+        peridyn::damage::CriticalStretch::never(),
         PartialVolume::Hhb,
         Loading::default(),
         Some(1.0),
         1.0,
-    );
+    )
+    .unwrap();
     sim.dt = 5.0 * sim.dt_stable;
     for (i, v) in sim.state.v.iter_mut().enumerate() {
         v[0] = if i % 2 == 0 { 1.0 } else { -1.0 };
     }
     let out = std::env::temp_dir().join(format!("peridyn-unstable-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
-    let mut observers: Vec<Box<dyn Observer<2, Pmb>>> = vec![
+    let mut observers: Vec<Box<dyn Observer<2>>> = vec![
         Box::new(History::new::<2>(&out.join("history.csv"), 10, &[])),
         Box::new(Snapshots::new(out.clone(), 50, false, "unstable").unwrap()),
     ];

@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use peridyn::bonds::PartialVolume;
-use peridyn::loading::Loading;
+use peridyn::damage::CriticalStretch;
 use peridyn::material::{Dimensionality, Elasticity, Material, MicromodulusProfile};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
@@ -47,7 +47,7 @@ fn deformed<const D: usize, M: Material<D>>(
     let dx = 1e-3;
     let (body, bonds) = lattice_body::<D>(n, dx, m, rule);
     let centre = centre_node(&body);
-    let mut sim = Simulation::new(body, bonds, material, rule, Loading::default(), None, 0.8);
+    let mut sim = simulation(body, bonds, material, CriticalStretch::never(), rule);
     for i in 0..sim.body.len() {
         let x = sim.body.positions[i];
         let u = Vector::<D>::from_fn(|a, _| (0..D).map(|b| strain[a][b] * x[b]).sum());
@@ -64,7 +64,7 @@ fn energy_error<const D: usize>(
     rule: PartialVolume,
 ) -> f64 {
     let h = m * 1e-3;
-    let material = pmb(dim, 70e9, h, MicromodulusProfile::Constant, f64::INFINITY);
+    let material = pmb(dim, 70e9, h, MicromodulusProfile::Constant);
     let el = Material::<D>::elasticity(&material);
     let n = (2.0 * m).ceil() as usize * 2 + 3;
     let (sim, c) = deformed::<D, _>(m, n, material, strain, rule);
@@ -135,7 +135,6 @@ fn conical_profile_bulk_energy_matches_classical() {
         70e9,
         h,
         MicromodulusProfile::Conical,
-        f64::INFINITY,
     );
     let el = Material::<2>::elasticity(&material);
     let (sim, c) = deformed::<2, _>(m, 19, material, &strain, PartialVolume::Hhb);
@@ -152,7 +151,7 @@ fn lps_stress_error<const D: usize>(
     strain: &[[f64; 3]; 3],
 ) -> f64 {
     let h = m * 1e-3;
-    let material = lps(dim, 70e9, nu, h, f64::INFINITY);
+    let material = lps(dim, 70e9, nu, h);
     let el = Elasticity {
         youngs_modulus: 70e9,
         poisson_ratio: nu,
@@ -206,7 +205,7 @@ fn lps_bulk_energy_matches_classical() {
         let m = 4.0;
         for strain in strains(dim.dim()) {
             let h = m * 1e-3;
-            let material = lps(dim, 70e9, nu, h, f64::INFINITY);
+            let material = lps(dim, 70e9, nu, h);
             let el = Elasticity {
                 youngs_modulus: 70e9,
                 poisson_ratio: nu,

@@ -24,11 +24,13 @@
 use peridyn::body::Body;
 use peridyn::bonds::search::build_bonds;
 use peridyn::bonds::PartialVolume;
+use peridyn::damage::CriticalStretch;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
-use peridyn::material::lps::Influence;
-use peridyn::material::{Dimensionality, Elasticity, Lps, Material, MicromodulusProfile, Pmb};
+use peridyn::material::{
+    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
 use std::sync::Mutex;
@@ -67,7 +69,7 @@ fn measure<const D: usize, M: Material<D>>(
     let thickness = if D == 2 { design.thickness } else { 1.0 };
     let material = make(delta, thickness);
     let el = material.elasticity();
-    let rho = material.density();
+    let rho = material.density(0);
     let c_p = (el.p_wave_modulus() / rho).sqrt();
     let c_s = (el.shear() / rho).sqrt();
     let sigma = design.sigma_over_delta * delta;
@@ -112,11 +114,13 @@ fn measure<const D: usize, M: Material<D>>(
         body,
         bonds,
         material,
+        CriticalStretch::never(),
         PartialVolume::Hhb,
         loading,
         None,
         0.8,
-    );
+    )
+    .unwrap();
 
     // Initial plane wave; strain amplitude ~1e-6 keeps the (geometrically nonlinear) bonds linear.
     let amp = 1e-6 * sigma;
@@ -200,15 +204,7 @@ fn measure<const D: usize, M: Material<D>>(
 
 fn pmb(dim: Dimensionality) -> impl FnOnce(f64, f64) -> Pmb {
     move |delta, thickness| {
-        Pmb::calibrated(
-            E,
-            None,
-            RHO,
-            dim,
-            MicromodulusProfile::Constant,
-            delta,
-            thickness,
-        )
+        Pmb::calibrated(E, RHO, dim, MicromodulusProfile::Constant, delta, thickness)
     }
 }
 
@@ -222,7 +218,6 @@ fn lps(dim: Dimensionality, nu: f64) -> impl FnOnce(f64, f64) -> Lps {
             },
             Influence::Constant,
             delta,
-            f64::INFINITY,
             RHO,
             thickness,
         )

@@ -8,6 +8,24 @@ use rayon::prelude::*;
 /// Nodes per parallel work unit of the search.
 const CHUNK: usize = 2048;
 
+/// Predicted number of directed bonds, before building them: for each node, the area
+/// (volume) of its horizon plus the partial-volume band over its cell's. Nodes near a surface
+/// have fewer, so this is an upper estimate.
+pub fn estimate_bonds<const D: usize>(body: &Body<D>, rule: PartialVolume) -> f64 {
+    (0..body.len())
+        .map(|i| {
+            let r = body.cell_sizes[i];
+            let reach = body.horizons[i] + rule.reach(r, D);
+            let ball = if D == 2 {
+                std::f64::consts::PI * reach * reach
+            } else {
+                4.0 / 3.0 * std::f64::consts::PI * reach.powi(3)
+            };
+            ball / r.powi(D as i32)
+        })
+        .sum()
+}
+
 /// Builds the families of every node: j is a neighbour of i when its cell can overlap either
 /// horizon, |ξ| < max(δ_i + r_j/2, δ_j + r_i/2) (partial volumes), or |ξ| ≤ δ without them.
 /// The rule is symmetric, so bond i→j exists exactly when j→i does. Bonds crossing a

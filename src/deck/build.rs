@@ -1,15 +1,25 @@
-//! Deck → model: body, bonds, loading, material and solver settings.
+//! Deck → model: body, bonds, loading, and the calibrated materials and damage laws.
 
 use super::schema::*;
 use super::validate::dimensionality;
 use super::{DeckError, DeckIssue, LoadedDeck};
 use crate::body::Body;
-use crate::bonds::{search::build_bonds, Bonds, PartialVolume};
-use crate::discretize::{lattice::lattice, NodeCloud};
+use crate::bonds::search::{build_bonds, estimate_bonds};
+use crate::bonds::{Bonds, PartialVolume};
+use crate::damage::mixed::BlockLaw;
+use crate::damage::porosity::Porosity;
+use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
+use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
+use crate::discretize::{lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
 use crate::loading::{BoundaryCondition, InitialVelocity, Load, Loading};
-use crate::material::{Dimensionality, Elasticity, Lps, Pmb};
+use crate::material::correspondence::ZeroEnergyControl;
+use crate::material::mixed::BlockMaterial;
+use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
+use crate::memory;
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// The discretized body with its families and loading.
 pub struct Model<const D: usize> {
@@ -17,20 +27,72 @@ pub struct Model<const D: usize> {
     pub bonds: Bonds,
     pub loading: Loading<D>,
     pub rule: PartialVolume,
-    /// Horizon δ (m).
+    /// Horizon δ of the discretization (m); blocks may give their nodes another.
     pub horizon: f64,
     /// Smallest cell size Δx (m).
     pub spacing: f64,
     pub dimensionality: Dimensionality,
     /// (name, initial velocity) pairs still to apply to the state.
     pub initial_velocities: Vec<InitialVelocity<D>>,
+    /// Index into `materials` of each node.
+    pub material_of: Vec<u16>,
+    /// Deck key of each material in use: "material", or "materials.NAME".
+    pub materials: Vec<String>,
 }
 
-/// The material of a deck, calibrated.
+/// The calibrated model of a deck's material(s): what `run.rs` dispatches on.
 #[derive(Debug, Clone)]
 pub enum MaterialChoice {
     Pmb(Pmb),
     Lps(Lps),
+    Correspondence(Correspondence),
+    Mixed(Mixed),
+}
+
+/// Materials and damage laws, calibrated for the body's horizons.
+#[derive(Debug, Clone)]
+pub struct Constitution {
+    pub material: MaterialChoice,
+    pub damage: Damage,
+    /// What `check` and `resolved.toml` report, one per material in use.
+    pub reports: Vec<MaterialReport>,
+    /// IH-PD pre-broken bonds to draw, per material index.
+    pub porosity: Vec<(u16, Porosity)>,
+}
+
+/// One material as calibrated (at the discretization's horizon when horizons vary).
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct MaterialReport {
+    /// Deck key: "material" or "materials.NAME".
+    pub key: String,
+    pub model: String,
+    pub damage: String,
+    pub nodes: usize,
+    /// Young's modulus (Pa) and density (kg/m³) in use (solid phase with porosity).
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+    pub density: f64,
+    /// Horizon range of the material's nodes (m).
+    pub horizon_min: f64,
+    pub horizon_max: f64,
+    /// PMB micromodulus as the papers write it (2D: per unit thickness).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub micromodulus: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub critical_stretch: Option<f64>,
+    /// Critical bond energy w_c (J/m⁶).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub critical_energy: Option<f64>,
+    /// Softening: s1, s2 (trilinear kink) and the breaking stretch.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_stretch: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kink_stretch: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub breaking_stretch: Option<f64>,
+    /// Bonds broken before loading (IH-PD porosity).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prebroken_bonds: Option<usize>,
 }
 
 /// Solver settings of an explicit run.
@@ -42,11 +104,14 @@ pub struct ExplicitSettings {
     pub safety_factor: f64,
 }
 
-/// Builds the body, bonds and loading of a validated deck.
+/// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
+/// memory than the machine has.
 pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckError> {
     let deck = &ld.deck;
     let dimensionality = dimensionality(deck).expect("validated deck");
     let thickness = deck.thickness.unwrap_or(1.0);
+    let available = memory::available_bytes();
+    let per_node = memory::bytes_per_node(D, 256);
     let (cloud, horizon, rule) = match &deck.discretization {
         Discretization::Lattice {
             shape,
@@ -56,8 +121,12 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             partial_volume,
         } => {
             let h = horizon.unwrap_or_else(|| horizon_ratio.unwrap_or(3.0) * spacing);
-            let cloud = lattice(shape, D, *spacing, thickness)
-                .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.shape", e)]))?;
+            let at = |e: String| ld.locate(vec![DeckIssue::new("discretization.shape", e)]);
+            let cells = lattice::cell_count(shape, D, *spacing).map_err(at)?;
+            memory::Estimate::new(cells, 0.0, per_node, 0)
+                .fits(available)
+                .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.spacing", e)]))?;
+            let cloud = lattice::lattice(shape, D, *spacing, thickness).map_err(at)?;
             (cloud, h, *partial_volume)
         }
         Discretization::PointCloud {
@@ -107,9 +176,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     if horizon < spacing {
         return Err(ld.locate(vec![DeckIssue::new("discretization.horizon", format!("horizon {horizon} m is smaller than the smallest cell {spacing} m; expected δ/Δx ≥ 1, typically 3 to 4"))]));
     }
-    for b in &deck.blocks {
-        body.assign_block(b.id, &b.region);
-    }
+    let (material_of, materials) = assign_blocks(ld, &mut body)?;
     let mut issues = Vec::new();
     for (k, set) in deck.node_sets.iter().enumerate() {
         if body.add_node_set(&set.name, &set.region) == 0 {
@@ -129,6 +196,32 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         let nodes = body.node_set(name).expect("validated set name");
         body.mark_no_fail(&nodes);
     }
+    let history = deck
+        .materials_in_use(&materials)
+        .map(|m| damage_history_words(&m.damage()))
+        .max()
+        .unwrap_or(0)
+        * if materials.len() > 1 { 2 } else { 1 };
+    let per_bond = memory::bytes_per_bond(
+        Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
+    );
+    memory::Estimate::new(
+        body.len() as f64,
+        estimate_bonds(&body, rule),
+        per_node,
+        per_bond,
+    )
+    .fits(available)
+    .map_err(|e| {
+        let at = match deck.discretization {
+            Discretization::Lattice {
+                horizon_ratio: Some(_),
+                ..
+            } => "discretization.horizon_ratio",
+            _ => "discretization.horizon",
+        };
+        ld.locate(vec![DeckIssue::new(at, e)])
+    })?;
     let bonds = build_bonds(&body, rule, &deck.precracks);
 
     let mut loading = Loading::<D>::default();
@@ -195,56 +288,477 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         spacing,
         dimensionality,
         initial_velocities,
+        material_of,
+        materials,
     })
 }
 
-/// Calibrates the deck's material for a horizon δ.
-pub fn build_material(deck: &Deck, horizon: f64) -> MaterialChoice {
-    let dim = dimensionality(deck).expect("validated deck");
-    let thickness = deck.thickness.unwrap_or(1.0);
-    match &deck.material {
+/// History words per bond of a damage law (for the memory estimate).
+fn damage_history_words(d: &DamageDeck) -> usize {
+    use crate::damage::DamageLaw;
+    match d {
+        DamageDeck::CriticalEnergy { .. } => CriticalEnergy::HISTORY,
+        DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. } => Softening::HISTORY,
+        _ => 0,
+    }
+}
+
+impl Deck {
+    /// The material tables of the given keys ("material", "materials.NAME").
+    pub fn materials_in_use<'a>(
+        &'a self,
+        keys: &'a [String],
+    ) -> impl Iterator<Item = &'a MaterialDeck> + 'a {
+        keys.iter().map(|k| self.material_at(k))
+    }
+
+    /// The material table of a key ("material", "materials.NAME").
+    pub fn material_at(&self, key: &str) -> &MaterialDeck {
+        match key.strip_prefix("materials.") {
+            Some(name) => &self.materials[name],
+            None => &self.material,
+        }
+    }
+}
+
+/// Applies `[[blocks]]`: block ids by region, per-block horizons, and the material of each
+/// node (index into the returned keys; 0 is `[material]` when any node uses it).
+fn assign_blocks<const D: usize>(
+    ld: &LoadedDeck,
+    body: &mut Body<D>,
+) -> Result<(Vec<u16>, Vec<String>), DeckError> {
+    let deck = &ld.deck;
+    let mut issues = Vec::new();
+    // Per block id: the material name and horizon its entries give (all entries must agree).
+    let mut settings: BTreeMap<u32, (Option<&str>, Option<f64>, usize)> = BTreeMap::new();
+    for (k, b) in deck.blocks.iter().enumerate() {
+        if let Some(region) = &b.region {
+            body.assign_block(b.id, region);
+        }
+        let entry = settings.entry(b.id).or_insert((None, None, k));
+        if let Some(name) = &b.material {
+            match entry.0 {
+                Some(other) if other != name => issues.push(DeckIssue::new(
+                    &format!("blocks[{k}].material"),
+                    format!("block {} is given material {name:?} here and {other:?} in blocks[{}]; one block has one material", b.id, entry.2),
+                )),
+                _ => entry.0 = Some(name),
+            }
+        }
+        if let Some(h) = b.horizon {
+            match entry.1 {
+                Some(other) if other != h => issues.push(DeckIssue::new(
+                    &format!("blocks[{k}].horizon"),
+                    format!(
+                        "block {} is given horizon {h} m here and {other} m in blocks[{}]",
+                        b.id, entry.2
+                    ),
+                )),
+                _ => entry.1 = Some(h),
+            }
+        }
+    }
+    for (&id, &(_, h, k)) in &settings {
+        if let Some(h) = h {
+            let mut any = false;
+            for i in 0..body.len() {
+                if body.blocks[i] == id {
+                    any = true;
+                    if h < body.cell_sizes[i] {
+                        issues.push(DeckIssue::new(&format!("blocks[{k}].horizon"), format!("horizon {h} m of block {id} is smaller than its cells ({} m); expected δ/Δx ≥ 1, typically 3 to 4", body.cell_sizes[i])));
+                        break;
+                    }
+                    body.horizons[i] = h;
+                }
+            }
+            if !any {
+                issues.push(DeckIssue::new(
+                    &format!("blocks[{k}]"),
+                    format!("block {id} has no nodes; check its region against the body"),
+                ));
+            }
+        }
+    }
+    if !issues.is_empty() {
+        return Err(ld.locate(issues));
+    }
+    let key_of = |block: u32| match settings.get(&block).and_then(|s| s.0) {
+        Some(name) => format!("materials.{name}"),
+        None => "material".to_string(),
+    };
+    let mut keys: Vec<String> = Vec::new();
+    let material_of = body
+        .blocks
+        .iter()
+        .map(|&b| {
+            let key = key_of(b);
+            match keys.iter().position(|k| *k == key) {
+                Some(p) => p as u16,
+                None => {
+                    keys.push(key);
+                    (keys.len() - 1) as u16
+                }
+            }
+        })
+        .collect();
+    Ok((material_of, keys))
+}
+
+/// The damage-law parameters of one material at one horizon.
+#[derive(Debug, Clone, Copy)]
+enum LawAt {
+    CriticalStretch(f64),
+    CriticalEnergy(f64),
+    Softening(SofteningParameters),
+}
+
+/// A material calibrated at one horizon.
+struct Calibrated {
+    material: BlockMaterial,
+    law: LawAt,
+    report: MaterialReport,
+}
+
+/// Calibrates the material table `spec` (at deck key `key`) for a horizon δ.
+fn calibrate(
+    spec: &MaterialDeck,
+    key: &str,
+    dim: Dimensionality,
+    thickness: f64,
+    horizon: f64,
+) -> Result<Calibrated, DeckIssue> {
+    let porosity = spec.porosity().map(|p| Porosity {
+        porosity: p.porosity,
+        critical: p.critical_porosity,
+        seed: p.seed,
+    });
+    let solid = |m: f64| porosity.map_or(m, |p| p.solid_phase(m));
+    let g0 = spec.fracture_energy().map(solid);
+    let mut report = MaterialReport {
+        key: key.to_string(),
+        model: spec.kind().to_string(),
+        density: spec.density(),
+        ..Default::default()
+    };
+    let profile = match spec {
+        MaterialDeck::Pmb { profile, .. } => *profile,
+        _ => Default::default(),
+    };
+    let (material, elasticity, pmb_c0) = match spec {
         MaterialDeck::Pmb {
             density,
             youngs_modulus,
             micromodulus,
-            fracture_energy,
-            critical_stretch,
-            profile,
             ..
         } => {
-            let c0 = micromodulus.unwrap_or_else(|| {
-                Pmb::micromodulus(youngs_modulus.unwrap_or(0.0), dim, *profile, horizon)
-            });
-            let s0 = match (fracture_energy, critical_stretch) {
-                (_, Some(s)) => *s,
-                (Some(g), None) => Pmb::critical_stretch_from_g0(*g, c0, dim, *profile, horizon),
-                (None, None) => f64::INFINITY,
+            let c0 = match micromodulus {
+                Some(c) => solid(*c),
+                None => {
+                    Pmb::micromodulus(solid(youngs_modulus.unwrap_or(0.0)), dim, profile, horizon)
+                }
             };
-            MaterialChoice::Pmb(Pmb::new(
-                c0, s0, *density, dim, *profile, horizon, thickness,
-            ))
+            let m = Pmb::new(c0, *density, dim, profile, horizon, thickness);
+            report.micromodulus = Some(c0);
+            let el = m.elasticity;
+            (BlockMaterial::Pmb(m), el, Some(c0))
         }
         MaterialDeck::Lps {
             density,
             youngs_modulus,
             poisson_ratio,
-            fracture_energy,
-            critical_stretch,
             influence,
+            ..
         } => {
             let el = Elasticity {
-                youngs_modulus: *youngs_modulus,
+                youngs_modulus: solid(*youngs_modulus),
                 poisson_ratio: *poisson_ratio,
                 dimensionality: dim,
             };
-            let s0 = match (fracture_energy, critical_stretch) {
-                (_, Some(s)) => *s,
-                (Some(g), None) => Lps::critical_stretch_from_g0(*g, &el, horizon),
-                (None, None) => f64::INFINITY,
+            let m = Lps::new(el, *influence, horizon, *density, thickness);
+            (BlockMaterial::Lps(m), el, None)
+        }
+        MaterialDeck::Correspondence {
+            density,
+            youngs_modulus,
+            poisson_ratio,
+            influence,
+            zero_energy_control,
+            ..
+        } => {
+            let el = Elasticity {
+                youngs_modulus: solid(*youngs_modulus),
+                poisson_ratio: *poisson_ratio,
+                dimensionality: dim,
             };
-            MaterialChoice::Lps(Lps::new(el, *influence, horizon, s0, *density, thickness))
+            let control = match zero_energy_control {
+                ZeroEnergyDeck::Wan { coefficient } => ZeroEnergyControl::Wan {
+                    coefficient: *coefficient,
+                },
+                ZeroEnergyDeck::Silling { coefficient } => ZeroEnergyControl::Silling {
+                    coefficient: *coefficient,
+                },
+                ZeroEnergyDeck::None {} => ZeroEnergyControl::None,
+            };
+            let m = Correspondence::new(el, *influence, control, horizon, *density, thickness);
+            (BlockMaterial::Correspondence(m), el, None)
+        }
+    };
+    report.youngs_modulus = elasticity.youngs_modulus;
+    report.poisson_ratio = elasticity.poisson_ratio;
+    // The critical stretch a fracture energy gives this model (bond-based: exact, seed 001
+    // Eq. 8; state-based: the bulk-equivalent approximation).
+    let s0_from = |g: f64| match pmb_c0 {
+        Some(c) => Pmb::critical_stretch_from_g0(g, c, dim, profile, horizon),
+        None => Lps::critical_stretch_from_g0(g, &elasticity, horizon),
+    };
+    let path = format!("{key}.damage");
+    let damage = spec.damage();
+    let law = match &damage {
+        DamageDeck::CriticalStretch {} => LawAt::CriticalStretch(
+            spec.critical_stretch()
+                .or(g0.map(s0_from))
+                .unwrap_or(f64::INFINITY),
+        ),
+        DamageDeck::None {} => LawAt::CriticalStretch(f64::INFINITY),
+        DamageDeck::CriticalEnergy {
+            critical_energy, ..
+        } => LawAt::CriticalEnergy(match (critical_energy, g0) {
+            (Some(w), _) => *w,
+            (None, Some(g)) => CriticalEnergy::critical_energy(g, horizon, dim, thickness),
+            (None, None) => f64::INFINITY,
+        }),
+        DamageDeck::Bilinear {
+            tensile_strength,
+            peak_stretch,
+            breaking_stretch,
+        }
+        | DamageDeck::Trilinear {
+            tensile_strength,
+            peak_stretch,
+            breaking_stretch,
+            ..
+        } => {
+            let c0 = pmb_c0.expect("validated: softening is bond-based");
+            let s1 = match (tensile_strength, peak_stretch) {
+                (_, Some(s1)) => *s1,
+                (Some(su), None) => SofteningParameters::peak_stretch(
+                    solid(*su),
+                    c0,
+                    profile.moment(2, horizon),
+                    profile.moment(3, horizon),
+                    dim,
+                ),
+                (None, None) => unreachable!("validated"),
+            };
+            let bilinear = match (breaking_stretch, g0) {
+                (Some(sc), _) => SofteningParameters::bilinear(s1, *sc),
+                (None, Some(g)) => {
+                    SofteningParameters::bilinear_from_strength(s1, s0_from(g), horizon, dim)
+                }
+                (None, None) => unreachable!("validated"),
+            }
+            .map_err(|e| DeckIssue::new(&path, e.to_string()))?;
+            let p = match damage {
+                DamageDeck::Trilinear { beta, gamma, .. } => {
+                    SofteningParameters::trilinear(bilinear, beta, gamma)
+                        .map_err(|e| DeckIssue::new(&path, e.to_string()))?
+                }
+                _ => bilinear,
+            };
+            LawAt::Softening(p)
+        }
+    };
+    report.damage = match (&damage, &law) {
+        (_, LawAt::CriticalStretch(s)) if s.is_infinite() => "none".into(),
+        (
+            DamageDeck::CriticalEnergy {
+                tension_only: true, ..
+            },
+            _,
+        ) => "critical energy (tension only)".into(),
+        (DamageDeck::CriticalEnergy { .. }, _) => "critical energy".into(),
+        (DamageDeck::Bilinear { .. }, _) => "bilinear softening".into(),
+        (DamageDeck::Trilinear { .. }, _) => "trilinear softening".into(),
+        _ => "critical stretch".into(),
+    };
+    match law {
+        LawAt::CriticalStretch(s) if s.is_finite() => report.critical_stretch = Some(s),
+        LawAt::CriticalEnergy(w) if w.is_finite() => report.critical_energy = Some(w),
+        LawAt::Softening(p) => {
+            report.peak_stretch = Some(p.s1);
+            report.breaking_stretch = Some(p.sc);
+            if matches!(damage, DamageDeck::Trilinear { .. }) {
+                report.kink_stretch = Some(p.s2);
+            }
+        }
+        _ => {}
+    }
+    Ok(Calibrated {
+        material,
+        law,
+        report,
+    })
+}
+
+/// Distinct horizons of a body and, per node, the index of its own.
+fn horizon_classes<const D: usize>(body: &Body<D>) -> (Vec<f64>, Vec<usize>) {
+    let mut distinct: Vec<f64> = Vec::new();
+    let class = body
+        .horizons
+        .iter()
+        .map(|&h| match distinct.iter().position(|&d| d == h) {
+            Some(k) => k,
+            None => {
+                distinct.push(h);
+                distinct.len() - 1
+            }
+        })
+        .collect();
+    (distinct, class)
+}
+
+/// Calibrates every material of a built model, for every horizon its nodes have.
+pub fn build_constitution<const D: usize>(
+    ld: &LoadedDeck,
+    model: &Model<D>,
+) -> Result<Constitution, DeckError> {
+    let deck = &ld.deck;
+    let dim = dimensionality(deck).expect("validated deck");
+    let thickness = deck.thickness.unwrap_or(1.0);
+    let body = &model.body;
+    let (distinct, class) = horizon_classes(body);
+    let mut materials = Vec::new();
+    let mut laws = Vec::new();
+    let mut reports = Vec::new();
+    let mut porosity = Vec::new();
+    let mut issues = Vec::new();
+    for (k, key) in model.materials.iter().enumerate() {
+        let spec = deck.material_at(key);
+        let nodes: Vec<usize> = (0..body.len())
+            .filter(|&i| model.material_of[i] as usize == k)
+            .collect();
+        // Calibrate at each horizon this material's nodes have (the first is the report's).
+        let mut used: Vec<usize> = nodes.iter().map(|&i| class[i]).collect();
+        used.sort_unstable();
+        used.dedup();
+        let mut at: Vec<Option<Calibrated>> = (0..distinct.len()).map(|_| None).collect();
+        for &c in &used {
+            match calibrate(spec, key, dim, thickness, distinct[c]) {
+                Ok(cal) => at[c] = Some(cal),
+                Err(issue) => issues.push(issue),
+            }
+        }
+        if !issues.is_empty() {
+            continue;
+        }
+        let first = at[used[0]].as_ref().expect("calibrated");
+        let mut report = first.report.clone();
+        report.nodes = nodes.len();
+        let hs: Vec<f64> = used.iter().map(|&c| distinct[c]).collect();
+        report.horizon_min = hs.iter().cloned().fold(f64::INFINITY, f64::min);
+        report.horizon_max = hs.iter().cloned().fold(0.0, f64::max);
+        reports.push(report);
+        // Per-node parameters: each node takes the calibration at its own horizon (nodes of
+        // other materials take the first, unused).
+        let value = |f: &dyn Fn(&LawAt) -> f64| {
+            PerNode::from_values(
+                class
+                    .iter()
+                    .map(|&c| f(&at[c].as_ref().unwrap_or(first).law))
+                    .collect(),
+            )
+        };
+        let law = match first.law {
+            LawAt::CriticalStretch(_) => BlockLaw::CriticalStretch(CriticalStretch {
+                s0: value(&|l| match l {
+                    LawAt::CriticalStretch(s) => *s,
+                    _ => unreachable!(),
+                }),
+            }),
+            LawAt::CriticalEnergy(_) => BlockLaw::CriticalEnergy(CriticalEnergy {
+                wc: value(&|l| match l {
+                    LawAt::CriticalEnergy(w) => *w,
+                    _ => unreachable!(),
+                }),
+                tension_only: matches!(
+                    spec.damage(),
+                    DamageDeck::CriticalEnergy {
+                        tension_only: true,
+                        ..
+                    }
+                ),
+            }),
+            LawAt::Softening(_) => {
+                let soft = |f: fn(&SofteningParameters) -> f64| {
+                    value(&|l| match l {
+                        LawAt::Softening(p) => f(p),
+                        _ => unreachable!(),
+                    })
+                };
+                BlockLaw::Softening(Softening {
+                    shape: match spec.damage() {
+                        DamageDeck::Trilinear { beta, .. } => SofteningShape::Trilinear { beta },
+                        _ => SofteningShape::Bilinear,
+                    },
+                    s1: soft(|p| p.s1),
+                    s2: soft(|p| p.s2),
+                    sc: soft(|p| p.sc),
+                })
+            }
+        };
+        laws.push(law);
+        let material = match &first.material {
+            BlockMaterial::Pmb(m) => BlockMaterial::Pmb(m.clone().with_horizons(&body.horizons)),
+            BlockMaterial::Lps(m) => BlockMaterial::Lps(m.clone().with_horizons(&body.horizons)),
+            BlockMaterial::Correspondence(m) => {
+                BlockMaterial::Correspondence(m.clone().with_horizons(&body.horizons))
+            }
+        };
+        materials.push(material);
+        if let Some(p) = spec.porosity() {
+            porosity.push((
+                k as u16,
+                Porosity {
+                    porosity: p.porosity,
+                    critical: p.critical_porosity,
+                    seed: p.seed,
+                },
+            ));
         }
     }
+    if !issues.is_empty() {
+        return Err(ld.locate(issues));
+    }
+    let (material, damage) = if materials.len() == 1 {
+        let material = match materials.pop().expect("one material") {
+            BlockMaterial::Pmb(m) => MaterialChoice::Pmb(m),
+            BlockMaterial::Lps(m) => MaterialChoice::Lps(m),
+            BlockMaterial::Correspondence(m) => MaterialChoice::Correspondence(m),
+        };
+        let damage = match laws.pop().expect("one law") {
+            BlockLaw::CriticalStretch(l) => Damage::CriticalStretch(l),
+            BlockLaw::CriticalEnergy(l) => Damage::CriticalEnergy(l),
+            BlockLaw::Softening(l) => Damage::Softening(l),
+        };
+        (material, damage)
+    } else {
+        (
+            MaterialChoice::Mixed(Mixed {
+                materials,
+                material_of: model.material_of.clone(),
+            }),
+            Damage::Mixed(MixedDamage {
+                laws,
+                law_of: model.material_of.clone(),
+            }),
+        )
+    };
+    Ok(Constitution {
+        material,
+        damage,
+        reports,
+        porosity,
+    })
 }
 
 /// The solver settings of a deck.

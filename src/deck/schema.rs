@@ -4,9 +4,9 @@
 use crate::bonds::{PartialVolume, Precrack};
 use crate::geometry::Shape;
 use crate::loading::{Kinematic, TimeFunction};
-use crate::material::lps::Influence;
-use crate::material::MicromodulusProfile;
+use crate::material::{Influence, MicromodulusProfile};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// A whole deck.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -25,7 +25,11 @@ pub struct Deck {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thickness: Option<f64>,
     pub discretization: Discretization,
+    /// The material of every node that no block gives another one.
     pub material: MaterialDeck,
+    /// Further materials, by name, for `[[blocks]]` to use.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub materials: BTreeMap<String, MaterialDeck>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub blocks: Vec<BlockDeck>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -86,7 +90,7 @@ pub enum Discretization {
     },
 }
 
-/// The material (one for the whole body).
+/// A material: its constitutive model, elastic and fracture properties, and damage law.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum MaterialDeck {
@@ -103,13 +107,20 @@ pub enum MaterialDeck {
         /// Only to confirm the bond-based value (1/3 plane stress, 1/4 otherwise).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         poisson_ratio: Option<f64>,
-        /// G0 (J/m²) to calibrate s0; or give `critical_stretch`; neither: bonds never break.
+        /// G0 (J/m²), from which the damage law is calibrated.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         fracture_energy: Option<f64>,
+        /// s0 given directly (critical-stretch law); or give `fracture_energy`.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         critical_stretch: Option<f64>,
         #[serde(default)]
         profile: MicromodulusProfile,
+        /// The damage law; default: critical stretch.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        damage: Option<DamageDeck>,
+        /// IH-PD porosity (seed 001 §4.2).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        porosity: Option<PorosityDeck>,
     },
     /// Linear peridynamic solid (ordinary state-based).
     Lps {
@@ -122,15 +133,203 @@ pub enum MaterialDeck {
         critical_stretch: Option<f64>,
         #[serde(default)]
         influence: Influence,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        damage: Option<DamageDeck>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        porosity: Option<PorosityDeck>,
+    },
+    /// Non-ordinary state-based correspondence model with zero-energy-mode control.
+    Correspondence {
+        density: f64,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fracture_energy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        critical_stretch: Option<f64>,
+        #[serde(default)]
+        influence: Influence,
+        #[serde(default)]
+        zero_energy_control: ZeroEnergyDeck,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        damage: Option<DamageDeck>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        porosity: Option<PorosityDeck>,
     },
 }
 
-/// Assigns a block id to the nodes in a region (later entries win).
+/// When bonds break (or soften).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DamageDeck {
+    /// A bond breaks once its stretch exceeds s0 (the material's `critical_stretch`, or
+    /// calibrated from its `fracture_energy`).
+    CriticalStretch {},
+    /// A bond breaks once the work done on it reaches w_c (calibrated from the material's
+    /// `fracture_energy`, or given here in J/m⁶).
+    CriticalEnergy {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        critical_energy: Option<f64>,
+        /// Only bonds in tension fail (seed 004).
+        #[serde(default)]
+        tension_only: bool,
+    },
+    /// Bilinear softening bonds (seed 001 §4.1).
+    Bilinear {
+        /// σu (Pa), for the peak stretch s1 (Eq. 15); or give `peak_stretch`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tensile_strength: Option<f64>,
+        /// s1 given directly.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        peak_stretch: Option<f64>,
+        /// sc given directly; otherwise s1·sc = s0² from the material's fracture energy.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        breaking_stretch: Option<f64>,
+    },
+    /// Trilinear softening bonds (seed 001 §4.3): the bilinear law's s1 and sc, then Eq. 20.
+    Trilinear {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tensile_strength: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        peak_stretch: Option<f64>,
+        /// The bilinear breaking stretch sc (ŝc follows from Eq. 20).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        breaking_stretch: Option<f64>,
+        /// Force at the kink over the peak force (default 1/4).
+        #[serde(default = "default_beta")]
+        beta: f64,
+        /// (ŝc − s1)/(s2 − s1) (default 28/3).
+        #[serde(default = "default_gamma")]
+        gamma: f64,
+    },
+    /// Bonds never break.
+    None {},
+}
+
+fn default_beta() -> f64 {
+    crate::damage::softening::SofteningParameters::GENERIC_BETA
+}
+fn default_gamma() -> f64 {
+    crate::damage::softening::SofteningParameters::GENERIC_GAMMA
+}
+
+/// IH-PD porosity: solid-phase properties and randomly pre-broken bonds (seed 001 §4.2).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PorosityDeck {
+    /// Porosity φ, also the fraction of bonds broken before loading.
+    pub porosity: f64,
+    /// Critical porosity φc of Eq. 18 (default 1).
+    #[serde(default = "default_critical_porosity")]
+    pub critical_porosity: f64,
+    /// Seed of the pre-broken bonds.
+    pub seed: u64,
+}
+
+fn default_critical_porosity() -> f64 {
+    1.0
+}
+
+/// Zero-energy-mode control of the correspondence model.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ZeroEnergyDeck {
+    /// Wan et al. 2019 (seed 004, Eqs. 12–15).
+    Wan {
+        #[serde(default = "default_one")]
+        coefficient: f64,
+    },
+    /// Silling's bond-based hourglass force (Peridigm's "hourglass coefficient").
+    Silling { coefficient: f64 },
+    /// No control.
+    None {},
+}
+
+fn default_one() -> f64 {
+    1.0
+}
+
+impl Default for ZeroEnergyDeck {
+    fn default() -> Self {
+        ZeroEnergyDeck::Wan { coefficient: 1.0 }
+    }
+}
+
+impl MaterialDeck {
+    /// The model's name as decks write it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            MaterialDeck::Pmb { .. } => "pmb",
+            MaterialDeck::Lps { .. } => "lps",
+            MaterialDeck::Correspondence { .. } => "correspondence",
+        }
+    }
+    pub fn density(&self) -> f64 {
+        match self {
+            MaterialDeck::Pmb { density, .. }
+            | MaterialDeck::Lps { density, .. }
+            | MaterialDeck::Correspondence { density, .. } => *density,
+        }
+    }
+    pub fn fracture_energy(&self) -> Option<f64> {
+        match self {
+            MaterialDeck::Pmb {
+                fracture_energy, ..
+            }
+            | MaterialDeck::Lps {
+                fracture_energy, ..
+            }
+            | MaterialDeck::Correspondence {
+                fracture_energy, ..
+            } => *fracture_energy,
+        }
+    }
+    pub fn critical_stretch(&self) -> Option<f64> {
+        match self {
+            MaterialDeck::Pmb {
+                critical_stretch, ..
+            }
+            | MaterialDeck::Lps {
+                critical_stretch, ..
+            }
+            | MaterialDeck::Correspondence {
+                critical_stretch, ..
+            } => *critical_stretch,
+        }
+    }
+    /// The damage law (critical stretch when absent).
+    pub fn damage(&self) -> DamageDeck {
+        match self {
+            MaterialDeck::Pmb { damage, .. }
+            | MaterialDeck::Lps { damage, .. }
+            | MaterialDeck::Correspondence { damage, .. } => {
+                damage.clone().unwrap_or(DamageDeck::CriticalStretch {})
+            }
+        }
+    }
+    pub fn porosity(&self) -> Option<&PorosityDeck> {
+        match self {
+            MaterialDeck::Pmb { porosity, .. }
+            | MaterialDeck::Lps { porosity, .. }
+            | MaterialDeck::Correspondence { porosity, .. } => porosity.as_ref(),
+        }
+    }
+}
+
+/// A block: the nodes in a region (or, without a region, the nodes a point cloud gives this
+/// id), with an optional material and horizon of their own. Later entries win.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BlockDeck {
     pub id: u32,
-    pub region: Shape,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<Shape>,
+    /// Name of a `[materials.NAME]` table; absent: the deck's `[material]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<String>,
+    /// Horizon δ (m) of the block's nodes (dual-horizon PD); absent: the discretization's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizon: Option<f64>,
 }
 
 /// A named node set selected by region.

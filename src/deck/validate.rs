@@ -145,65 +145,9 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         }
     }
 
-    match &deck.material {
-        MaterialDeck::Pmb {
-            density,
-            youngs_modulus,
-            micromodulus,
-            poisson_ratio,
-            fracture_energy,
-            critical_stretch,
-            ..
-        } => {
-            positive(&mut out, "material.density", *density, "density (kg/m³)");
-            match (youngs_modulus, micromodulus) {
-                (Some(_), Some(_)) => out.push(DeckIssue::new(
-                    "material.micromodulus",
-                    "give `youngs_modulus` or `micromodulus`, not both",
-                )),
-                (None, None) => out.push(DeckIssue::new(
-                    "material",
-                    "missing stiffness: give `youngs_modulus` (Pa) or `micromodulus`",
-                )),
-                (Some(e), None) => positive(
-                    &mut out,
-                    "material.youngs_modulus",
-                    *e,
-                    "Young's modulus (Pa)",
-                ),
-                (None, Some(c)) => positive(&mut out, "material.micromodulus", *c, "micromodulus"),
-            }
-            if let (Some(nu), Some(dm)) = (poisson_ratio, dimensionality) {
-                let fixed = bond_based_poisson_ratio(dm);
-                if (nu - fixed).abs() > 1e-6 {
-                    out.push(DeckIssue::new(
-                        "material.poisson_ratio",
-                        format!("bond-based PMB fixes Poisson's ratio at {fixed:.4} in {}; found {nu}. Use type = \"lps\" for another Poisson ratio", dm.describe()),
-                    ));
-                }
-            }
-            fracture(&mut out, fracture_energy, critical_stretch);
-        }
-        MaterialDeck::Lps {
-            density,
-            youngs_modulus,
-            poisson_ratio,
-            fracture_energy,
-            critical_stretch,
-            ..
-        } => {
-            positive(&mut out, "material.density", *density, "density (kg/m³)");
-            positive(
-                &mut out,
-                "material.youngs_modulus",
-                *youngs_modulus,
-                "Young's modulus (Pa)",
-            );
-            if !(poisson_ratio.is_finite() && *poisson_ratio > -1.0 && *poisson_ratio < 0.5) {
-                out.push(DeckIssue::new("material.poisson_ratio", format!("Poisson's ratio must lie in (-1, 0.5) for a stable isotropic solid, found {poisson_ratio}")));
-            }
-            fracture(&mut out, fracture_energy, critical_stretch);
-        }
+    validate_material(&mut out, "material", &deck.material, dimensionality);
+    for (name, m) in &deck.materials {
+        validate_material(&mut out, &format!("materials.{name}"), m, dimensionality);
     }
 
     let mut names: Vec<&str> = Vec::new();
@@ -236,7 +180,36 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     };
 
     for (k, b) in deck.blocks.iter().enumerate() {
-        check_shape(&mut out, &format!("blocks[{k}].region"), &b.region);
+        if let Some(region) = &b.region {
+            check_shape(&mut out, &format!("blocks[{k}].region"), region);
+        } else if matches!(deck.discretization, Discretization::Lattice { .. }) {
+            out.push(DeckIssue::new(
+                &format!("blocks[{k}]"),
+                "a block needs a `region` (only a point cloud can give block ids without one)",
+            ));
+        }
+        if let Some(name) = &b.material {
+            if !deck.materials.contains_key(name) {
+                out.push(DeckIssue::new(
+                    &format!("blocks[{k}].material"),
+                    format!(
+                        "unknown material {name:?}; define it as [materials.{name}] (defined: {})",
+                        if deck.materials.is_empty() {
+                            "none".to_string()
+                        } else {
+                            deck.materials
+                                .keys()
+                                .cloned()
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        }
+                    ),
+                ));
+            }
+        }
+        if let Some(h) = b.horizon {
+            positive(&mut out, &format!("blocks[{k}].horizon"), h, "horizon (m)");
+        }
     }
     for (k, c) in deck.precracks.iter().enumerate() {
         let p = format!("precracks[{k}]");
@@ -373,20 +346,169 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     out
 }
 
-fn fracture(out: &mut Vec<DeckIssue>, g0: &Option<f64>, s0: &Option<f64>) {
-    match (g0, s0) {
-        (Some(_), Some(_)) => out.push(DeckIssue::new(
-            "material.critical_stretch",
-            "give `fracture_energy` or `critical_stretch`, not both",
-        )),
-        (Some(g), None) => positive(
+/// Checks one material table (`[material]` or `[materials.NAME]`, at `path`).
+fn validate_material(
+    out: &mut Vec<DeckIssue>,
+    path: &str,
+    m: &MaterialDeck,
+    dimensionality: Option<Dimensionality>,
+) {
+    let at = |key: &str| format!("{path}.{key}");
+    positive(out, &at("density"), m.density(), "density (kg/m³)");
+    match m {
+        MaterialDeck::Pmb {
+            youngs_modulus,
+            micromodulus,
+            poisson_ratio,
+            ..
+        } => {
+            match (youngs_modulus, micromodulus) {
+                (Some(_), Some(_)) => out.push(DeckIssue::new(
+                    &at("micromodulus"),
+                    "give `youngs_modulus` or `micromodulus`, not both",
+                )),
+                (None, None) => out.push(DeckIssue::new(
+                    path,
+                    "missing stiffness: give `youngs_modulus` (Pa) or `micromodulus`",
+                )),
+                (Some(e), None) => positive(out, &at("youngs_modulus"), *e, "Young's modulus (Pa)"),
+                (None, Some(c)) => positive(out, &at("micromodulus"), *c, "micromodulus"),
+            }
+            if let (Some(nu), Some(dm)) = (poisson_ratio, dimensionality) {
+                let fixed = bond_based_poisson_ratio(dm);
+                if (nu - fixed).abs() > 1e-6 {
+                    out.push(DeckIssue::new(
+                        &at("poisson_ratio"),
+                        format!("bond-based PMB fixes Poisson's ratio at {fixed:.4} in {}; found {nu}. Use type = \"lps\" or \"correspondence\" for another Poisson ratio", dm.describe()),
+                    ));
+                }
+            }
+        }
+        MaterialDeck::Lps {
+            youngs_modulus,
+            poisson_ratio,
+            ..
+        }
+        | MaterialDeck::Correspondence {
+            youngs_modulus,
+            poisson_ratio,
+            ..
+        } => {
+            positive(
+                out,
+                &at("youngs_modulus"),
+                *youngs_modulus,
+                "Young's modulus (Pa)",
+            );
+            if !(poisson_ratio.is_finite() && *poisson_ratio > -1.0 && *poisson_ratio < 0.5) {
+                out.push(DeckIssue::new(&at("poisson_ratio"), format!("Poisson's ratio must lie in (-1, 0.5) for a stable isotropic solid, found {poisson_ratio}")));
+            }
+        }
+    }
+    if let MaterialDeck::Correspondence {
+        zero_energy_control:
+            ZeroEnergyDeck::Wan { coefficient } | ZeroEnergyDeck::Silling { coefficient },
+        ..
+    } = m
+    {
+        positive(
             out,
-            "material.fracture_energy",
-            *g,
-            "fracture energy G0 (J/m²)",
-        ),
-        (None, Some(s)) => positive(out, "material.critical_stretch", *s, "critical stretch"),
-        (None, None) => {}
+            &at("zero_energy_control.coefficient"),
+            *coefficient,
+            "zero-energy control coefficient",
+        );
+    }
+    let (g0, s0) = (m.fracture_energy(), m.critical_stretch());
+    if let Some(g) = g0 {
+        positive(out, &at("fracture_energy"), g, "fracture energy G0 (J/m²)");
+    }
+    if let Some(s) = s0 {
+        positive(out, &at("critical_stretch"), s, "critical stretch");
+    }
+    let damage = m.damage();
+    if s0.is_some() && damage != (DamageDeck::CriticalStretch {}) {
+        out.push(DeckIssue::new(
+            &at("critical_stretch"),
+            "`critical_stretch` belongs to the critical-stretch law; remove it or the `damage` table",
+        ));
+    }
+    let dpath = at("damage");
+    let dat = |key: &str| format!("{dpath}.{key}");
+    match &damage {
+        DamageDeck::CriticalStretch {} => {
+            if g0.is_some() && s0.is_some() {
+                out.push(DeckIssue::new(
+                    &at("critical_stretch"),
+                    "give `fracture_energy` or `critical_stretch`, not both",
+                ));
+            }
+        }
+        DamageDeck::None {} => {}
+        DamageDeck::CriticalEnergy {
+            critical_energy, ..
+        } => match (critical_energy, g0) {
+            (Some(w), _) => positive(out, &dat("critical_energy"), *w, "critical bond energy (J/m⁶)"),
+            (None, None) => out.push(DeckIssue::new(
+                &dpath,
+                format!("the critical-energy law needs `{path}.fracture_energy` (G0, J/m²) or `critical_energy` (w_c, J/m⁶)"),
+            )),
+            _ => {}
+        },
+        DamageDeck::Bilinear {
+            tensile_strength,
+            peak_stretch,
+            breaking_stretch,
+        }
+        | DamageDeck::Trilinear {
+            tensile_strength,
+            peak_stretch,
+            breaking_stretch,
+            ..
+        } => {
+            if !matches!(m, MaterialDeck::Pmb { .. }) {
+                out.push(DeckIssue::new(
+                    &dpath,
+                    format!("softening bond laws are calibrated for bond-based PD (seed 001 §4); use them with type = \"pmb\", not \"{}\"", m.kind()),
+                ));
+            }
+            match (tensile_strength, peak_stretch) {
+                (Some(_), Some(_)) => out.push(DeckIssue::new(&dat("peak_stretch"), "give `tensile_strength` or `peak_stretch`, not both")),
+                (None, None) => out.push(DeckIssue::new(&dpath, "a softening law needs `tensile_strength` (σu, Pa) or `peak_stretch` (s1)")),
+                (Some(v), None) => positive(out, &dat("tensile_strength"), *v, "tensile strength (Pa)"),
+                (None, Some(v)) => positive(out, &dat("peak_stretch"), *v, "peak stretch"),
+            }
+            match (breaking_stretch, g0) {
+                (Some(v), _) => positive(out, &dat("breaking_stretch"), *v, "breaking stretch"),
+                (None, None) => out.push(DeckIssue::new(&dpath, format!("a softening law needs `{path}.fracture_energy` (G0, J/m²) or `breaking_stretch` (sc)"))),
+                _ => {}
+            }
+            if let DamageDeck::Trilinear { beta, gamma, .. } = damage {
+                if !(beta > 0.0 && beta < 1.0) {
+                    out.push(DeckIssue::new(&dat("beta"), format!("β must lie in (0, 1), found {beta}")));
+                }
+                if !(gamma > 1.0 && gamma.is_finite()) {
+                    out.push(DeckIssue::new(&dat("gamma"), format!("γ must be greater than 1, found {gamma}")));
+                }
+            }
+        }
+    }
+    if let Some(p) = m.porosity() {
+        let pp = at("porosity");
+        if !(p.porosity >= 0.0 && p.porosity < 1.0) {
+            out.push(DeckIssue::new(
+                &format!("{pp}.porosity"),
+                format!("porosity must lie in [0, 1), found {}", p.porosity),
+            ));
+        }
+        if !(p.critical_porosity > p.porosity && p.critical_porosity <= 1.0) {
+            out.push(DeckIssue::new(
+                &format!("{pp}.critical_porosity"),
+                format!(
+                    "critical porosity φc must lie in (φ, 1], found {}",
+                    p.critical_porosity
+                ),
+            ));
+        }
     }
 }
 

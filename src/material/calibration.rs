@@ -106,6 +106,23 @@ impl Elasticity {
     }
 }
 
+/// Linearised bond stiffness C = c/|ξ| (N/m⁷) of the bond-based material with the same
+/// P-wave modulus M, for the stable time step of state-based models: c = 18K'/(πδ⁴) with
+/// K' = M/1.8 in 3D; c = 12κ'/(πδ³ t) with κ' = 2M/3 in 2D (seed 001 Eq. 6 rewritten).
+pub fn equivalent_bond_stiffness(
+    elasticity: &Elasticity,
+    horizon: f64,
+    thickness: f64,
+    ref_len: f64,
+) -> f64 {
+    let m = elasticity.p_wave_modulus();
+    let c = match elasticity.dimensionality {
+        Dimensionality::ThreeD => 18.0 * (m / 1.8) / (std::f64::consts::PI * horizon.powi(4)),
+        _ => 12.0 * (2.0 * m / 3.0) / (std::f64::consts::PI * horizon.powi(3) * thickness),
+    };
+    c / ref_len
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,24 +1,14 @@
 //! Linear peridynamic solid (ordinary state-based; Silling et al. 2007), seed 002 §2.1,
-//! Eqs. (3)–(5), in 3D, 2D plane stress (γ-scaled form) and 2D plane strain, with
-//! critical-stretch failure.
+//! Eqs. (3)–(5), in 3D, 2D plane stress (γ-scaled form) and 2D plane strain, with any
+//! influence function and a horizon per node (each half of a bond uses its own node's ω, m
+//! and θ, which is the dual-horizon form of the state-based equation of motion).
 
-use super::{BondGeom, Dimensionality, Elasticity, Material};
+use super::simd::{self, NodeBonds};
+use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
-use super::simd::{self, NodeBonds};
-use serde::{Deserialize, Serialize};
-
-/// Influence function ω(|ξ|).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Influence {
-    /// ω = 1 (Peridigm's default, used by seed 002).
-    #[default]
-    Constant,
-    /// ω = δ/|ξ|.
-    Inverse,
-}
+use crate::per_node::PerNode;
 
 /// Per-node state of the pre-pass: the dilatation θ (before: the weighted sum Σ ω|ξ| e w).
 /// Transparent, so a slice of points is a slice of θ for the vector kernel.
@@ -34,8 +24,10 @@ pub struct LpsPoint {
 pub struct Lps {
     pub elasticity: Elasticity,
     pub influence: Influence,
+    /// Reference horizon (m).
     pub horizon: f64,
-    pub s0: f64,
+    /// Horizon per node (m): enters ω for the non-constant influence functions.
+    pub horizons: PerNode,
     pub rho: f64,
     /// Weighted volume m_i = Σ ω |ξ|² w_ij, fixed at its initial value (as Peridigm does).
     pub m: Vec<f64>,
@@ -64,7 +56,6 @@ impl Lps {
         elasticity: Elasticity,
         influence: Influence,
         horizon: f64,
-        s0: f64,
         rho: f64,
         thickness: f64,
     ) -> Self {
@@ -85,7 +76,7 @@ impl Lps {
             elasticity,
             influence,
             horizon,
-            s0,
+            horizons: PerNode::Uniform(horizon),
             rho,
             m: Vec::new(),
             inv_m: Vec::new(),
@@ -110,23 +101,31 @@ impl Lps {
         }
     }
 
-    /// The constants of the force state, for the vector kernels.
-    fn law(&self) -> simd::LpsLaw {
-        simd::LpsLaw {
+    /// The same material with a horizon per node (ω of each half uses its node's horizon).
+    pub fn with_horizons(mut self, horizons: &[f64]) -> Self {
+        self.horizons = PerNode::from_values(horizons.to_vec());
+        self
+    }
+
+    /// The constants of the force state, for the vector kernels (uniform horizon, constant
+    /// or inverse influence function).
+    fn law(&self) -> Option<simd::LpsLaw> {
+        if self.horizons.uniform().is_none() || self.influence == Influence::Gaussian {
+            return None;
+        }
+        Some(simd::LpsLaw {
             a_vol: self.a_vol,
             b_dev: self.b_dev,
             c_iso: self.c_iso,
             horizon: self.horizon,
             inverse_influence: self.influence == Influence::Inverse,
-        }
+        })
     }
 
+    /// ω of a bond of node i.
     #[inline(always)]
-    fn omega(&self, ref_len: f64) -> f64 {
-        match self.influence {
-            Influence::Constant => 1.0,
-            Influence::Inverse => self.horizon / ref_len,
-        }
+    fn omega(&self, i: usize, ref_len: f64) -> f64 {
+        self.influence.omega(ref_len, self.horizons.at(i))
     }
 
     /// Scalar force state t⟨ξ⟩ of a node with 1/m = `inv_m` and dilatation θ, given the
@@ -142,7 +141,12 @@ impl<const D: usize> Material<D> for Lps {
     type Point = LpsPoint;
     const NEEDS_PREPASS: bool = true;
 
-    fn setup(&mut self, body: &Body<D>, bonds: &Bonds, quad: &Quadrature) {
+    fn setup(
+        &mut self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        quad: &Quadrature,
+    ) -> Result<(), PointError> {
         self.m = (0..body.len())
             .map(|i| {
                 bonds
@@ -150,7 +154,7 @@ impl<const D: usize> Material<D> for Lps {
                     .map(|b| {
                         let l = bonds.ref_lengths[b];
                         let j = bonds.neighbors[b] as usize;
-                        self.omega(l) * l * l * quad.phi_pair(b, i, j, l).0 * body.volumes[j]
+                        self.omega(i, l) * l * l * quad.phi_pair(b, i, j, l).0 * body.volumes[j]
                     })
                     .sum::<f64>()
             })
@@ -160,11 +164,12 @@ impl<const D: usize> Material<D> for Lps {
             .iter()
             .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
             .collect();
+        Ok(())
     }
 
     #[inline(always)]
-    fn accumulate(&self, acc: &mut LpsPoint, b: &BondGeom) {
-        acc.theta += self.omega(b.ref_len) * b.ref_len * (b.len - b.ref_len) * b.weight();
+    fn accumulate(&self, i: usize, acc: &mut LpsPoint, b: &BondGeom<D>) {
+        acc.theta += self.omega(i, b.ref_len) * b.ref_len * (b.len - b.ref_len) * b.weight();
     }
 
     #[inline(always)]
@@ -176,36 +181,44 @@ impl<const D: usize> Material<D> for Lps {
 
     /// Seed 002, Eqs. (4)–(5); the engine pairs it with t_j⟨−ξ⟩ as in Eq. (1).
     #[inline(always)]
-    fn force_state(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
+    fn force_state(&self, i: usize, b: &BondGeom<D>, p: &LpsPoint) -> f64 {
         self.scalar_state(
             self.inv_m[i],
             p.theta,
-            self.omega(b.ref_len),
+            self.omega(i, b.ref_len),
             b.len - b.ref_len,
             b.ref_len,
         )
     }
 
-    /// (t_i⟨ξ⟩ φ_ij + t_j⟨−ξ⟩ φ_ji) / |ξ+η|, sharing ω and e between the two states.
+    /// (t_i⟨ξ⟩ φ_ij μ_ij + t_j⟨−ξ⟩ φ_ji μ_ji) / |ξ+η|, sharing ω and e between the two
+    /// states when the horizon is uniform.
     #[inline(always)]
     fn pair_force_per_length(
         &self,
         i: usize,
         j: usize,
-        b: &BondGeom,
+        b: &BondGeom<D>,
         pi: &LpsPoint,
         pj: &LpsPoint,
     ) -> f64 {
-        let (w, e) = (self.omega(b.ref_len), b.len - b.ref_len);
-        let ti = self.scalar_state(self.inv_m[i], pi.theta, w, e, b.ref_len);
-        let tj = self.scalar_state(self.inv_m[j], pj.theta, w, e, b.ref_len);
-        (ti * b.phi_ij + tj * b.phi_ji) / b.len
+        let e = b.len - b.ref_len;
+        let (wi, wj) = match self.horizons {
+            PerNode::Uniform(h) => {
+                let w = self.influence.omega(b.ref_len, h);
+                (w, w)
+            }
+            PerNode::Varying(_) => (self.omega(i, b.ref_len), self.omega(j, b.ref_len)),
+        };
+        let ti = self.scalar_state(self.inv_m[i], pi.theta, wi, e, b.ref_len);
+        let tj = self.scalar_state(self.inv_m[j], pj.theta, wj, e, b.ref_len);
+        (ti * (b.phi_ij * b.mu_ij) + tj * (b.phi_ji * b.mu_ji)) / b.len
     }
 
     #[inline(always)]
-    fn bond_energy(&self, i: usize, b: &BondGeom, p: &LpsPoint) -> f64 {
+    fn bond_energy(&self, i: usize, b: &BondGeom<D>, p: &LpsPoint) -> f64 {
         let ed = (b.len - b.ref_len) - self.c_iso * p.theta * b.ref_len;
-        0.5 * self.b_dev * self.inv_m[i] * self.omega(b.ref_len) * ed * ed * b.weight()
+        0.5 * self.b_dev * self.inv_m[i] * self.omega(i, b.ref_len) * ed * ed * b.weight()
     }
 
     unsafe fn vector_prepass(
@@ -213,8 +226,9 @@ impl<const D: usize> Material<D> for Lps {
         nb: &mut NodeBonds,
         w: &UniformWeights,
     ) -> Option<(LpsPoint, u64)> {
+        let law = self.law()?;
         // SAFETY: forwarded from the caller.
-        let (sum, broke) = unsafe { simd::lps_dilatation_sum(nb, &self.law(), w) };
+        let (sum, broke) = unsafe { simd::lps_dilatation_sum(nb, &law, w) };
         Some((
             Material::<D>::finish_point(self, nb.i, LpsPoint { theta: sum }),
             broke,
@@ -227,12 +241,13 @@ impl<const D: usize> Material<D> for Lps {
         w: &UniformWeights,
         points: &[LpsPoint],
     ) -> Option<([f64; 3], u64)> {
+        let law = self.law()?;
         // SAFETY: `LpsPoint` is a transparent f64.
         let theta =
             unsafe { std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len()) };
         // SAFETY: forwarded from the caller.
         Some((
-            unsafe { simd::lps_force(nb, &self.law(), w, theta, &self.inv_m) },
+            unsafe { simd::lps_force(nb, &law, w, theta, &self.inv_m) },
             0,
         ))
     }
@@ -241,27 +256,17 @@ impl<const D: usize> Material<D> for Lps {
         0.5 * self.energy_vol * p.theta * p.theta + bond_sum
     }
 
-    fn critical_stretch(&self) -> f64 {
-        self.s0
+    /// Bond-based equivalent with the same P-wave modulus.
+    fn bond_stiffness(&self, i: usize, ref_len: f64) -> f64 {
+        super::calibration::equivalent_bond_stiffness(
+            &self.elasticity,
+            self.horizons.at(i),
+            self.thickness,
+            ref_len,
+        )
     }
 
-    /// Bond-based equivalent with the same P-wave modulus M: c = 18K'/(πδ⁴), K' = M/1.8 in 3D;
-    /// c = 12κ'/(πδ³ t), κ' = 2M/3 in 2D (constant micromodulus, seed 001 Eq. 6 rewritten).
-    fn bond_stiffness(&self, ref_len: f64) -> f64 {
-        let m = self.elasticity.p_wave_modulus();
-        let c = match self.elasticity.dimensionality {
-            Dimensionality::ThreeD => {
-                18.0 * (m / 1.8) / (std::f64::consts::PI * self.horizon.powi(4))
-            }
-            _ => {
-                12.0 * (2.0 * m / 3.0)
-                    / (std::f64::consts::PI * self.horizon.powi(3) * self.thickness)
-            }
-        };
-        c / ref_len
-    }
-
-    fn density(&self) -> f64 {
+    fn density(&self, _i: usize) -> f64 {
         self.rho
     }
 

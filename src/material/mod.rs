@@ -1,26 +1,37 @@
 //! Constitutive models. The engine (`solver::forces`) owns every loop; a model supplies
-//! pointwise laws of one bond plus, for state-based models, a per-node pre-pass.
+//! pointwise laws of one bond plus, for state-based models, a per-node pre-pass. When bonds
+//! break or soften is a separate policy (`damage`), which hands the model the remaining
+//! fraction μ of each half of a bond.
 //!
-//! Adding a model touches: its file here, a variant of `MaterialSpec` (deck twin in `deck/`),
-//! one arm of the dispatch in `run.rs`, and the conformance list in `tests/conformance.rs`.
+//! Adding a model touches: its file here, a variant of `MaterialDeck` and its calibration
+//! (`deck/`), one arm of the dispatch in `run.rs` (and of `Mixed`), and the conformance list
+//! in `tests/conformance.rs`. See `docs/architecture.md`.
 
 pub mod calibration;
+pub mod correspondence;
+pub mod influence;
 pub mod lps;
+pub mod mixed;
 pub mod pmb;
 pub mod simd;
 
 pub use calibration::{Dimensionality, Elasticity};
+pub use correspondence::Correspondence;
+pub use influence::Influence;
 pub use lps::Lps;
+pub use mixed::Mixed;
 pub use pmb::{MicromodulusProfile, Pmb};
 
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
+use crate::math::Vector;
 use simd::NodeBonds;
 
-/// Geometry of one directed bond i→j at the current configuration.
+/// Geometry of one directed bond i→j at the current configuration, with the state of its two
+/// halves.
 #[derive(Debug, Clone, Copy)]
-pub struct BondGeom {
+pub struct BondGeom<const D: usize> {
     /// Reference length |ξ| (m).
     pub ref_len: f64,
     /// Deformed length |ξ + η| (m).
@@ -31,39 +42,101 @@ pub struct BondGeom {
     pub phi_ji: f64,
     /// Volume of the neighbour V_j (m³).
     pub vol_j: f64,
+    /// Remaining fraction of node i's half (its force state T_i⟨ξ⟩): 1 intact, 0 broken.
+    pub mu_ij: f64,
+    /// Remaining fraction of node j's half (T_j⟨−ξ⟩).
+    pub mu_ji: f64,
+    /// Deformed bond vector y_j − y_i (m).
+    pub y: Vector<D>,
+    /// Reference bond vector x_j − x_i (m); filled only for models with `NEEDS_XI`.
+    pub xi: Vector<D>,
 }
 
-impl BondGeom {
+impl<const D: usize> BondGeom<D> {
     /// Bond stretch s = (|ξ+η| − |ξ|)/|ξ| (seed 001, Eq. 3).
     #[inline(always)]
     pub fn stretch(&self) -> f64 {
         (self.len - self.ref_len) / self.ref_len
     }
-    /// Quadrature weight of the bond in i's family, φ_ij V_j.
+    /// Quadrature weight of the bond in i's family, φ_ij μ_ij V_j.
     #[inline(always)]
     pub fn weight(&self) -> f64 {
-        self.phi_ij * self.vol_j
+        self.phi_ij * self.mu_ij * self.vol_j
     }
+    /// The same bond seen from j: ξ and y negated, the halves swapped. The neighbour's volume
+    /// (V_i) is not known here and is NaN: use it for force states only.
+    #[inline(always)]
+    pub fn reversed(&self) -> Self {
+        BondGeom {
+            phi_ij: self.phi_ji,
+            phi_ji: self.phi_ij,
+            mu_ij: self.mu_ji,
+            mu_ji: self.mu_ij,
+            vol_j: f64::NAN,
+            y: -self.y,
+            xi: -self.xi,
+            ..*self
+        }
+    }
+    /// An intact bond of the given lengths, for tests and reports.
+    pub fn intact(ref_len: f64, len: f64, phi: f64, vol_j: f64) -> Self {
+        BondGeom {
+            ref_len,
+            len,
+            phi_ij: phi,
+            phi_ji: phi,
+            vol_j,
+            mu_ij: 1.0,
+            mu_ji: 1.0,
+            y: Vector::zeros(),
+            xi: Vector::zeros(),
+        }
+    }
+}
+
+/// Why a model cannot evaluate a node (e.g. a singular shape tensor).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("node {node} at x = {position:?}: {reason}")]
+pub struct PointError {
+    pub node: usize,
+    pub position: Vec<f64>,
+    pub reason: String,
 }
 
 /// A material law, written for one bond; the engine sums it over families.
 ///
-/// Force convention: `pair_force` returns the scalar `g` such that the force density on node i
-/// from bond i→j is `g · V_j · (y_j − y_i)/|y_j − y_i|`. Energy convention: the strain energy
-/// density of node i is `point_energy(i, p_i, Σ_j bond_energy(b, p_i))`.
+/// Force convention: the force density on node i from bond i→j is V_j times the pair force
+/// T_i⟨ξ⟩ φ_ij μ_ij − T_j⟨−ξ⟩ φ_ji μ_ji, the discrete form of T[x]⟨ξ⟩ − T[x']⟨−ξ⟩. A model whose
+/// force states lie along the deformed bond (`CENTRAL`: bond-based and ordinary state-based)
+/// gives it as a scalar per unit length, `pair_force_per_length`, which the engine multiplies
+/// by y = y_j − y_i; others give the vector, `pair_force`. Energy convention: the strain
+/// energy density of node i is `point_energy(i, p_i, Σ_j bond_energy(b, p_i))`.
 pub trait Material<const D: usize>: Sync + Send {
     /// Per-node quantities computed in the pre-pass (θ for LPS; `()` for bond-based models).
     type Point: Copy + Default + Send + Sync;
     /// Whether the engine must run the per-node pre-pass before the force pass.
     const NEEDS_PREPASS: bool;
+    /// Force states along the deformed bond: the engine asks `pair_force_per_length`.
+    const CENTRAL: bool = true;
+    /// The bond loops fill `BondGeom::xi` (the reference bond vector).
+    const NEEDS_XI: bool = false;
 
     /// Per-node constants that depend on the families (LPS weighted volume m); called once
-    /// before the run, with all bonds intact.
-    fn setup(&mut self, _body: &Body<D>, _bonds: &Bonds, _quad: &Quadrature) {}
+    /// before the run, with all bonds intact. Fails, naming the node, when a node cannot be
+    /// evaluated (e.g. a singular shape tensor).
+    fn setup(
+        &mut self,
+        _body: &Body<D>,
+        _bonds: &Bonds,
+        _quad: &Quadrature,
+    ) -> Result<(), PointError> {
+        Ok(())
+    }
 
-    /// Pre-pass: adds the contribution of an intact bond of node i to its accumulator.
+    /// Pre-pass: adds the contribution of a bond of node i (weighted by μ_ij) to its
+    /// accumulator.
     #[inline(always)]
-    fn accumulate(&self, _acc: &mut Self::Point, _bond: &BondGeom) {}
+    fn accumulate(&self, _i: usize, _acc: &mut Self::Point, _bond: &BondGeom<D>) {}
 
     /// Pre-pass: turns the accumulator of node i into its point state.
     #[inline(always)]
@@ -71,64 +144,71 @@ pub trait Material<const D: usize>: Sync + Send {
         acc
     }
 
-    /// Scalar force state t_i⟨ξ⟩ of node i on bond i→j (N/m⁶): the force state is
-    /// T = t M, M the deformed bond direction. Bond-based models give half the pair force.
-    fn force_state(&self, i: usize, bond: &BondGeom, pi: &Self::Point) -> f64;
+    /// Scalar force state t_i⟨ξ⟩ of node i on bond i→j (N/m⁶) of an intact half, for a
+    /// central model: T = t M, M the deformed bond direction. Bond-based models give half
+    /// the pair force.
+    fn force_state(&self, i: usize, bond: &BondGeom<D>, pi: &Self::Point) -> f64;
 
-    /// Scalar pair force density of bond i→j (see the trait docs for the convention):
-    /// t_i⟨ξ⟩ φ_ij + t_j⟨−ξ⟩ φ_ji, the discrete form of T[x]⟨ξ⟩ − T[x']⟨−ξ⟩.
+    /// Vector force state T_i⟨ξ⟩ of an intact half (N/m⁶); central models: t M.
     #[inline(always)]
-    fn pair_force(
-        &self,
-        i: usize,
-        j: usize,
-        bond: &BondGeom,
-        pi: &Self::Point,
-        pj: &Self::Point,
-    ) -> f64 {
-        let _ = (i, j);
-        self.force_state(i, bond, pi) * bond.phi_ij + self.force_state(j, bond, pj) * bond.phi_ji
+    fn force_state_vector(&self, i: usize, bond: &BondGeom<D>, pi: &Self::Point) -> Vector<D> {
+        bond.y * (self.force_state(i, bond, pi) / bond.len)
     }
 
-    /// `pair_force / |ξ+η|`, the factor the engine multiplies the deformed bond vector by.
-    /// Models override it when they can fold the division into one (the loop is bound by
-    /// the divider).
+    /// Central models: (t_i φ_ij μ_ij + t_j φ_ji μ_ji) / |ξ+η|, the factor the engine
+    /// multiplies y by. Models override it when they can fold divisions (the loop is bound
+    /// by the divider).
     #[inline(always)]
     fn pair_force_per_length(
         &self,
         i: usize,
         j: usize,
-        bond: &BondGeom,
+        bond: &BondGeom<D>,
         pi: &Self::Point,
         pj: &Self::Point,
     ) -> f64 {
-        self.pair_force(i, j, bond, pi, pj) / bond.len
+        let _ = j;
+        (self.force_state(i, bond, pi) * (bond.phi_ij * bond.mu_ij)
+            + self.force_state(j, bond, pj) * (bond.phi_ji * bond.mu_ji))
+            / bond.len
     }
 
-    /// Energy contribution of an intact bond of node i (before the point-level finish).
-    fn bond_energy(&self, i: usize, bond: &BondGeom, pi: &Self::Point) -> f64;
+    /// Non-central models: the pair force T_i⟨ξ⟩ φ_ij μ_ij − T_j⟨−ξ⟩ φ_ji μ_ji (N/m⁶). It must
+    /// be the exact negation of the value computed from j's side (swap i and j, negate y and
+    /// ξ), so that bond work and failure are the same from either end.
+    #[inline(always)]
+    fn pair_force(
+        &self,
+        i: usize,
+        j: usize,
+        bond: &BondGeom<D>,
+        pi: &Self::Point,
+        pj: &Self::Point,
+    ) -> Vector<D> {
+        bond.y * self.pair_force_per_length(i, j, bond, pi, pj)
+    }
+
+    /// Energy contribution of a bond of node i (before the point-level finish).
+    fn bond_energy(&self, i: usize, bond: &BondGeom<D>, pi: &Self::Point) -> f64;
 
     /// Strain energy density W_i (J/m³) from the summed bond contributions.
     fn point_energy(&self, _i: usize, _pi: &Self::Point, bond_sum: f64) -> f64 {
         bond_sum
     }
 
-    /// Critical stretch s0: an intact bond whose stretch exceeds it breaks, irreversibly.
-    fn critical_stretch(&self) -> f64;
+    /// Linearised stiffness of a bond whose both halves were like node i's, C(ξ) = c(ξ)/|ξ|
+    /// (N/m⁷), for the stable time step (Silling & Askari 2005); state-based models use the
+    /// bond-based equivalent of their P-wave modulus.
+    fn bond_stiffness(&self, i: usize, ref_len: f64) -> f64;
 
-    /// Linearised bond stiffness C(ξ) = c(ξ)/|ξ| (N/m⁷) for the stable time step estimate
-    /// (Silling & Askari 2005); state-based models use the bond-based equivalent of their
-    /// bulk modulus.
-    fn bond_stiffness(&self, ref_len: f64) -> f64;
+    /// Mass density of node i (kg/m³).
+    fn density(&self, i: usize) -> f64;
 
-    /// Mass density (kg/m³).
-    fn density(&self) -> f64;
-
-    /// Optional AVX2 pre-pass of one node (3D, uniform grid): its point state and the bonds
-    /// it broke, or `None` to use the generic loop.
+    /// Optional AVX2 pre-pass of one node (3D, uniform grid, one critical stretch): its point
+    /// state and the bonds it broke, or `None` to use the generic loop.
     ///
     /// # Safety
-    /// `solver::simd::available()` and every neighbour index below `nb.current.len() / 3`.
+    /// `simd::available()` and every neighbour index below `nb.current.len() / 3`.
     unsafe fn vector_prepass(
         &self,
         _nb: &mut NodeBonds,
@@ -137,8 +217,8 @@ pub trait Material<const D: usize>: Sync + Send {
         None
     }
 
-    /// Optional AVX2 force pass of one node (3D, uniform grid): its force density and the
-    /// bonds it broke, or `None` to use the generic loop.
+    /// Optional AVX2 force pass of one node (3D, uniform grid, one critical stretch): its
+    /// force density and the bonds it broke, or `None` to use the generic loop.
     ///
     /// # Safety
     /// As for `vector_prepass`.
@@ -151,6 +231,7 @@ pub trait Material<const D: usize>: Sync + Send {
         None
     }
 
-    /// The classical elastic constants the model represents.
+    /// The classical elastic constants the model represents (of the first block for
+    /// several materials).
     fn elasticity(&self) -> Elasticity;
 }

@@ -1,9 +1,10 @@
 //! Prototype microelastic brittle (PMB) bond-based material (Silling & Askari 2005) with a
 //! constant or conical micromodulus and irreversible critical-stretch failure.
 
+use super::simd::{self, NodeBonds};
 use super::{BondGeom, Dimensionality, Elasticity, Material};
 use crate::bonds::partial_volume::UniformWeights;
-use super::simd::{self, NodeBonds};
+use crate::per_node::PerNode;
 use serde::{Deserialize, Serialize};
 
 /// Shape of the micromodulus along the bond, c(ξ) = c0 · g(ξ).
@@ -37,18 +38,24 @@ pub fn bond_based_poisson_ratio(dim: Dimensionality) -> f64 {
     }
 }
 
-/// PMB material with its calibrated constants.
+/// PMB material with its calibrated constants. The micromodulus and horizon are per node
+/// when horizons vary (dual-horizon PD, seed 003 §2.3): each half of a bond uses the constants
+/// of the node that owns it.
 #[derive(Debug, Clone)]
 pub struct Pmb {
     /// c0 per unit volume² (N/m⁶): in 2D the per-thickness micromodulus divided by the thickness.
-    pub c0: f64,
-    /// c0 as the papers write it: per unit thickness in 2D (N/m⁵), N/m⁶ in 3D.
+    pub c0: PerNode,
+    /// c0 as the papers write it (per unit thickness in 2D, N/m⁵; N/m⁶ in 3D), at `horizon`.
     pub c0_paper: f64,
     pub profile: MicromodulusProfile,
+    /// The reference horizon of `c0_paper` (m).
     pub horizon: f64,
-    pub s0: f64,
+    /// Horizon per node (m), for the conical profile.
+    pub horizons: PerNode,
     pub rho: f64,
     pub elasticity: Elasticity,
+    dimensionality: Dimensionality,
+    thickness: f64,
 }
 
 impl Pmb {
@@ -106,7 +113,6 @@ impl Pmb {
     /// Builds a PMB material. `c0_paper` is per unit thickness in 2D; `thickness` is 1 in 3D.
     pub fn new(
         c0_paper: f64,
-        s0: f64,
         rho: f64,
         dim: Dimensionality,
         profile: MicromodulusProfile,
@@ -114,30 +120,35 @@ impl Pmb {
         thickness: f64,
     ) -> Self {
         let e = Self::youngs_modulus_of(c0_paper, dim, profile, horizon);
+        let thickness = if dim == Dimensionality::ThreeD {
+            1.0
+        } else {
+            thickness
+        };
         Pmb {
-            c0: if dim == Dimensionality::ThreeD {
+            c0: PerNode::Uniform(if dim == Dimensionality::ThreeD {
                 c0_paper
             } else {
                 c0_paper / thickness
-            },
+            }),
             c0_paper,
             profile,
             horizon,
-            s0,
+            horizons: PerNode::Uniform(horizon),
             rho,
             elasticity: Elasticity {
                 youngs_modulus: e,
                 poisson_ratio: bond_based_poisson_ratio(dim),
                 dimensionality: dim,
             },
+            dimensionality: dim,
+            thickness,
         }
     }
 
-    /// Calibrated from Young's modulus and, if given, the fracture energy (seed 001, Eqs. 6
-    /// and 8); without G0 bonds never break.
+    /// Calibrated from Young's modulus (seed 001, Eq. 6).
     pub fn calibrated(
         e: f64,
-        g0: Option<f64>,
         rho: f64,
         dim: Dimensionality,
         profile: MicromodulusProfile,
@@ -145,18 +156,64 @@ impl Pmb {
         thickness: f64,
     ) -> Self {
         let c0 = Self::micromodulus(e, dim, profile, horizon);
-        let s0 = g0.map_or(f64::INFINITY, |g| {
-            Self::critical_stretch_from_g0(g, c0, dim, profile, horizon)
-        });
-        Self::new(c0, s0, rho, dim, profile, horizon, thickness)
+        Self::new(c0, rho, dim, profile, horizon, thickness)
     }
 
-    /// c(ξ) per unit volume² at a bond length.
+    /// The same material with a horizon per node: each node's micromodulus is recalibrated
+    /// to its own horizon for the same Young's modulus (dual-horizon PD, seed 003 §2.3; the
+    /// half-bond form of this code already carries the factor ½ that the notes discuss for
+    /// the paper's Eq. 3).
+    pub fn with_horizons(mut self, horizons: &[f64]) -> Self {
+        let per_node = PerNode::from_values(horizons.to_vec());
+        if per_node.uniform() == Some(self.horizon) {
+            return self;
+        }
+        let e = self.elasticity.youngs_modulus;
+        let (dim, profile, t) = (self.dimensionality, self.profile, self.thickness);
+        let mut cache: Vec<(f64, f64)> = Vec::new();
+        let c0 = horizons
+            .iter()
+            .map(|&h| match cache.iter().find(|(k, _)| *k == h) {
+                Some(&(_, c)) => c,
+                None => {
+                    let c = Self::micromodulus(e, dim, profile, h) / t;
+                    cache.push((h, c));
+                    c
+                }
+            })
+            .collect();
+        self.c0 = PerNode::Varying(c0);
+        self.horizons = per_node;
+        self
+    }
+
+    /// c(ξ) of node i's half, per unit volume², at a bond length.
     #[inline(always)]
-    fn c(&self, ref_len: f64) -> f64 {
+    fn c(&self, i: usize, ref_len: f64) -> f64 {
         match self.profile {
-            MicromodulusProfile::Constant => self.c0,
-            MicromodulusProfile::Conical => self.c0 * (1.0 - ref_len / self.horizon).max(0.0),
+            MicromodulusProfile::Constant => self.c0.at(i),
+            MicromodulusProfile::Conical => {
+                self.c0.at(i) * (1.0 - ref_len / self.horizons.at(i)).max(0.0)
+            }
+        }
+    }
+
+    /// The pair weight c φ̄ of a bond: c ½(φ_ij μ_ij + φ_ji μ_ji) with one micromodulus,
+    /// ½(c_i φ_ij μ_ij + c_j φ_ji μ_ji) with one per node.
+    #[inline(always)]
+    fn pair_weight<const D: usize>(&self, i: usize, j: usize, b: &BondGeom<D>) -> f64 {
+        match self.c0 {
+            PerNode::Uniform(c0) => {
+                let c = match self.profile {
+                    MicromodulusProfile::Constant => c0,
+                    MicromodulusProfile::Conical => c0 * (1.0 - b.ref_len / self.horizon).max(0.0),
+                };
+                c * 0.5 * (b.phi_ij * b.mu_ij + b.phi_ji * b.mu_ji)
+            }
+            PerNode::Varying(_) => {
+                0.5 * (self.c(i, b.ref_len) * (b.phi_ij * b.mu_ij)
+                    + self.c(j, b.ref_len) * (b.phi_ji * b.mu_ji))
+            }
         }
     }
 }
@@ -165,41 +222,32 @@ impl<const D: usize> Material<D> for Pmb {
     type Point = ();
     const NEEDS_PREPASS: bool = false;
 
-    /// f = c(ξ) s (seed 001, Eq. 4), with the pair weighted by ½(φ_ij + φ_ji) so that the
-    /// force is the exact gradient of the discrete energy on non-uniform grids too.
+    /// c φ̄ s / |ξ+η| = c φ̄ (|ξ+η| − |ξ|) / (|ξ| |ξ+η|): one division instead of two
+    /// (f = c(ξ) s, seed 001 Eq. 4, weighted by the halves so that the force is the exact
+    /// gradient of the discrete energy on non-uniform grids too).
     #[inline(always)]
-    fn pair_force(&self, _i: usize, _j: usize, b: &BondGeom, _: &(), _: &()) -> f64 {
-        self.c(b.ref_len) * b.stretch() * 0.5 * (b.phi_ij + b.phi_ji)
-    }
-
-    /// c s φ̄ / |ξ+η| = c φ̄ (|ξ+η| − |ξ|) / (|ξ| |ξ+η|): one division instead of two.
-    #[inline(always)]
-    fn pair_force_per_length(&self, _i: usize, _j: usize, b: &BondGeom, _: &(), _: &()) -> f64 {
-        self.c(b.ref_len) * 0.5 * (b.phi_ij + b.phi_ji) * (b.len - b.ref_len) / (b.ref_len * b.len)
+    fn pair_force_per_length(&self, i: usize, j: usize, b: &BondGeom<D>, _: &(), _: &()) -> f64 {
+        self.pair_weight(i, j, b) * (b.len - b.ref_len) / (b.ref_len * b.len)
     }
 
     /// Half the pair force goes to each end's force state.
     #[inline(always)]
-    fn force_state(&self, _i: usize, b: &BondGeom, _: &()) -> f64 {
-        0.5 * self.c(b.ref_len) * b.stretch()
+    fn force_state(&self, i: usize, b: &BondGeom<D>, _: &()) -> f64 {
+        0.5 * self.c(i, b.ref_len) * b.stretch()
     }
 
     /// Half of the bond micropotential ω = ½ c s² |ξ| (seed 001, Eq. 3) goes to each end.
     #[inline(always)]
-    fn bond_energy(&self, _i: usize, b: &BondGeom, _: &()) -> f64 {
+    fn bond_energy(&self, i: usize, b: &BondGeom<D>, _: &()) -> f64 {
         let s = b.stretch();
-        0.25 * self.c(b.ref_len) * s * s * b.ref_len * b.weight()
+        0.25 * self.c(i, b.ref_len) * s * s * b.ref_len * b.weight()
     }
 
-    fn critical_stretch(&self) -> f64 {
-        self.s0
+    fn bond_stiffness(&self, i: usize, ref_len: f64) -> f64 {
+        self.c(i, ref_len) / ref_len
     }
 
-    fn bond_stiffness(&self, ref_len: f64) -> f64 {
-        self.c(ref_len) / ref_len
-    }
-
-    fn density(&self) -> f64 {
+    fn density(&self, _i: usize) -> f64 {
         self.rho
     }
 
@@ -209,8 +257,9 @@ impl<const D: usize> Material<D> for Pmb {
         w: &UniformWeights,
         _: &[()],
     ) -> Option<([f64; 3], u64)> {
+        let c0 = self.c0.uniform()?;
         let law = simd::PmbLaw {
-            c0: self.c0,
+            c0,
             horizon: self.horizon,
             conical: self.profile == MicromodulusProfile::Conical,
         };

@@ -2,7 +2,6 @@
 
 use super::csv::CsvHistory;
 use super::observer::{Every, Observer, StepView};
-use crate::material::Material;
 use std::path::Path;
 
 pub struct History {
@@ -41,29 +40,29 @@ impl History {
     }
 }
 
-impl<const D: usize, M: Material<D>> Observer<D, M> for History {
+impl<const D: usize> Observer<D> for History {
     fn wants(&self, step: u64, last: bool) -> bool {
         self.every.hits(step, last)
     }
 
-    fn observe(&mut self, view: &StepView<D, M>) -> std::io::Result<()> {
-        let sim = view.sim;
-        let (ek, es) = (sim.kinetic_energy(), view.strain_energy());
-        let (w, dv) = (sim.state.external_work, sim.state.dissipated_viscous);
+    fn observe(&mut self, view: &StepView<D>) -> std::io::Result<()> {
+        let state = view.state;
+        let (ek, es) = (view.kinetic_energy(), view.strain_energy());
+        let (w, dv) = (state.external_work, state.dissipated_viscous);
         // Energy balance: E_kin + E_strain + D_viscous − W_ext, constant (≈ 0) for an elastic run;
         // its growth is the energy dissipated by breaking bonds.
         let mut row = vec![
-            sim.state.time,
-            sim.state.step as f64,
+            state.time,
+            state.step as f64,
             ek,
             es,
             w,
             dv,
             ek + es + dv - w,
-            (sim.state.broken / 2) as f64,
+            (state.broken / 2) as f64,
         ];
         for nodes in &self.sets {
-            let r = sim.reaction(nodes);
+            let r = view.reaction(nodes);
             row.extend(r.iter());
         }
         self.csv.push(row)?;

@@ -1,59 +1,66 @@
 //! The observer interface: after each committed step the driver offers observers a read-only
 //! view whose derived fields (damage, strain energy density) are computed at most once.
+//! Observers do not depend on the material: they see the simulation through `Fields`.
 
-use crate::material::Material;
-use crate::solver::Simulation;
+use crate::body::Body;
+use crate::math::Vector;
+use crate::solver::Fields;
+use crate::state::State;
 use std::cell::OnceCell;
 
 /// A read-only view of a committed step.
-pub struct StepView<'a, const D: usize, M: Material<D>> {
-    pub sim: &'a Simulation<D, M>,
+pub struct StepView<'a, const D: usize> {
+    pub body: &'a Body<D>,
+    pub state: &'a State<D>,
     /// True for the last step of the run.
     pub last: bool,
+    fields: &'a dyn Fields<D>,
     damage: OnceCell<Vec<f64>>,
     energy: OnceCell<Vec<f64>>,
 }
 
-impl<'a, const D: usize, M: Material<D>> StepView<'a, D, M> {
-    pub fn new(sim: &'a Simulation<D, M>, last: bool) -> Self {
+impl<'a, const D: usize> StepView<'a, D> {
+    pub fn new(sim: &'a dyn Fields<D>, last: bool) -> Self {
         StepView {
-            sim,
+            body: sim.body(),
+            state: sim.state(),
             last,
+            fields: sim,
             damage: OnceCell::new(),
             energy: OnceCell::new(),
         }
     }
     /// Damage index per node.
     pub fn damage(&self) -> &[f64] {
-        self.damage.get_or_init(|| {
-            self.sim
-                .engine
-                .damage(&self.sim.body, &self.sim.bonds, &self.sim.state)
-        })
+        self.damage.get_or_init(|| self.fields.damage())
     }
     /// Strain energy density per node (J/m³).
     pub fn energy_density(&self) -> &[f64] {
-        self.energy.get_or_init(|| {
-            self.sim
-                .engine
-                .energy_density(&self.sim.body, &self.sim.bonds, &self.sim.state)
-        })
+        self.energy.get_or_init(|| self.fields.energy_density())
     }
     /// Total strain energy (J).
     pub fn strain_energy(&self) -> f64 {
         self.energy_density()
             .iter()
-            .zip(&self.sim.body.volumes)
+            .zip(&self.body.volumes)
             .map(|(w, v)| w * v)
             .sum()
+    }
+    /// Kinetic energy (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        self.fields.kinetic_energy()
+    }
+    /// External force (N) that holds a node set.
+    pub fn reaction(&self, nodes: &[u32]) -> Vector<D> {
+        self.fields.reaction(nodes)
     }
 }
 
 /// Something that watches the run: writers, trackers, progress.
-pub trait Observer<const D: usize, M: Material<D>> {
+pub trait Observer<const D: usize> {
     /// Whether this observer wants the view of `step` (the driver builds the view only then).
     fn wants(&self, step: u64, last: bool) -> bool;
-    fn observe(&mut self, view: &StepView<D, M>) -> std::io::Result<()>;
+    fn observe(&mut self, view: &StepView<D>) -> std::io::Result<()>;
     /// Called once at the end, also after a failed step, so nothing written so far is lost.
     fn finish(&mut self) -> std::io::Result<()> {
         Ok(())

@@ -1,7 +1,6 @@
 //! Progress on stderr: a bar with ETA on a terminal, plain lines every 10% otherwise.
 
 use super::observer::{Observer, StepView};
-use crate::material::Material;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
@@ -35,14 +34,14 @@ impl Progress {
     }
 }
 
-impl<const D: usize, M: Material<D>> Observer<D, M> for Progress {
+impl<const D: usize> Observer<D> for Progress {
     fn wants(&self, step: u64, last: bool) -> bool {
         self.bar.is_some() && step.is_multiple_of(50) || last || step >= self.next_line
     }
 
-    fn observe(&mut self, view: &StepView<D, M>) -> std::io::Result<()> {
-        let step = view.sim.state.step;
-        let broken = view.sim.state.broken / 2;
+    fn observe(&mut self, view: &StepView<D>) -> std::io::Result<()> {
+        let step = view.state.step;
+        let broken = view.state.broken / 2;
         if let Some(bar) = &self.bar {
             bar.set_position(step);
             bar.set_message(format!("{broken} bonds broken"));
@@ -56,7 +55,7 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Progress {
             } else {
                 0.0
             };
-            eprintln!("step {step}/{} ({:.0}%), t = {:.4e} s, {broken} bonds broken, elapsed {elapsed:.1} s, ETA {eta:.1} s", self.total, 100.0 * step as f64 / self.total as f64, view.sim.state.time);
+            eprintln!("step {step}/{} ({:.0}%), t = {:.4e} s, {broken} bonds broken, elapsed {elapsed:.1} s, ETA {eta:.1} s", self.total, 100.0 * step as f64 / self.total as f64, view.state.time);
             self.next_line = step + (self.total / 10).max(1);
         }
         Ok(())

@@ -3,7 +3,6 @@
 use super::observer::{Every, Observer, StepView};
 use super::pvd::PvdSeries;
 use super::vtu::{write_vtu, Field, FieldData};
-use crate::material::Material;
 use crate::math::to3;
 use crate::plot::damage_map::{write_scalar_map_png, MapStyle};
 use std::io;
@@ -41,22 +40,21 @@ fn with_path(e: io::Error, p: &std::path::Path) -> io::Error {
     io::Error::new(e.kind(), format!("{}: {e}", p.display()))
 }
 
-impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
+impl<const D: usize> Observer<D> for Snapshots {
     fn wants(&self, step: u64, last: bool) -> bool {
         self.every.hits(step, last)
     }
 
-    fn observe(&mut self, view: &StepView<D, M>) -> io::Result<()> {
-        let sim = view.sim;
-        let step = sim.state.step;
-        let points: Vec<[f64; 3]> = sim.body.positions.iter().map(to3).collect();
+    fn observe(&mut self, view: &StepView<D>) -> io::Result<()> {
+        let step = view.state.step;
+        let points: Vec<[f64; 3]> = view.body.positions.iter().map(to3).collect();
         let flat = |v: &[crate::math::Vector<D>]| {
             v.iter()
                 .flat_map(|x| x.iter().cloned().collect::<Vec<_>>())
                 .collect::<Vec<f64>>()
         };
-        let (u, v) = (flat(&sim.state.u), flat(&sim.state.v));
-        let blocks: Vec<i32> = sim.body.blocks.iter().map(|&b| b as i32).collect();
+        let (u, v) = (flat(&view.state.u), flat(&view.state.v));
+        let blocks: Vec<i32> = view.body.blocks.iter().map(|&b| b as i32).collect();
         let name = format!("step_{step:08}.vtu");
         write_vtu(
             &self.dir.join("fields").join(&name),
@@ -90,13 +88,14 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
                 },
             ],
         )?;
-        self.series.add(sim.state.time, &format!("fields/{name}"))?;
+        self.series
+            .add(view.state.time, &format!("fields/{name}"))?;
         if D == 2 && self.png {
-            let xy: Vec<[f64; 2]> = sim.body.positions.iter().map(|p| [p[0], p[1]]).collect();
+            let xy: Vec<[f64; 2]> = view.body.positions.iter().map(|p| [p[0], p[1]]).collect();
             let title = format!(
                 "{} — damage at t = {:.3} µs (step {step})",
                 self.title,
-                sim.state.time * 1e6
+                view.state.time * 1e6
             );
             let style = MapStyle {
                 title: &title,
@@ -109,7 +108,7 @@ impl<const D: usize, M: Material<D>> Observer<D, M> for Snapshots {
                 .dir
                 .join("images")
                 .join(format!("damage_step_{step:08}.png"));
-            write_scalar_map_png(&path, &xy, &sim.body.cell_sizes, view.damage(), &style)
+            write_scalar_map_png(&path, &xy, &view.body.cell_sizes, view.damage(), &style)
                 .map_err(|e| io::Error::other(e.to_string()))?;
             // The latest map, also replaced atomically.
             let bytes = std::fs::read(&path).map_err(|e| with_path(e, &path))?;

@@ -1,28 +1,34 @@
-//! The bond loops. Written once, generic over the material; everything inside is
-//! monomorphised, with no allocation, hashing or dynamic dispatch per bond.
+//! The bond loops. Written once, generic over the material and the damage law; everything
+//! inside is monomorphised, with no allocation, hashing or dynamic dispatch per bond.
 //!
 //! Parallelism is gather-style over node chunks: each node sums its own family in a fixed
-//! order, so results are bitwise identical for any number of threads.
+//! order, so results are bitwise identical for any number of threads. A bond's two entries
+//! (i→j in i's row, j→i in j's) are updated by their own rows from the same numbers, so they
+//! always agree.
 
-use crate::material::simd::{self, NodeBonds};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
-use crate::material::{BondGeom, Material};
+use crate::damage::critical_stretch::UniformCriticalStretch;
+use crate::damage::{Damage, DamageLaw, PerNode, Stretch, BROKEN, INTACT, OWN_BROKEN};
+use crate::material::simd::{self, NodeBonds};
+use crate::material::{BondGeom, Material, PointError};
 use crate::math::Vector;
-use crate::state::{State, BROKEN, INTACT};
+use crate::state::State;
 use rayon::prelude::*;
 use std::ops::Range;
 
 /// Nodes per parallel work unit.
 const NODE_CHUNK: usize = 256;
 
-/// Force evaluation for one material over one body: owns the material, the quadrature
-/// weights and the per-node pre-pass buffer.
+/// Force evaluation for one material and damage law over one body: owns the material, the
+/// damage law, the quadrature weights and the per-node pre-pass buffer.
 pub struct ForceEngine<const D: usize, M: Material<D>> {
     pub material: M,
+    pub damage: Damage,
     pub quad: Quadrature,
-    /// Use the models' AVX2 kernels where they apply (3D, uniform grid, x86-64 with AVX2).
+    /// Use the models' AVX2 kernels where they apply (3D, uniform grid, one critical
+    /// stretch, x86-64 with AVX2).
     pub vector_kernels: bool,
     /// Every neighbour index is a node of the body (checked once; the kernel relies on it).
     neighbors_in_bounds: bool,
@@ -33,83 +39,125 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
 /// uniform grid (one monomorphised loop each, written once).
 trait Weights: Sync {
-    /// Geometry of bond i→j of reference length `ref_len` and current length `len`.
-    fn geom(&self, b: usize, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom;
+    /// (φ_ij, φ_ji, V_j) of bond b = i→j of reference length `ref_len`.
+    fn weights(&self, b: usize, i: usize, j: usize, ref_len: f64) -> (f64, f64, f64);
 }
 
 impl Weights for Quadrature {
     #[inline(always)]
-    fn geom(&self, b: usize, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
+    fn weights(&self, b: usize, i: usize, j: usize, ref_len: f64) -> (f64, f64, f64) {
         let (phi_ij, phi_ji) = self.phi_pair(b, i, j, ref_len);
-        BondGeom {
-            ref_len,
-            len,
-            phi_ij,
-            phi_ji,
-            vol_j: self.nodes[j].volume,
-        }
+        (phi_ij, phi_ji, self.nodes[j].volume)
     }
 }
 
 impl Weights for UniformWeights {
     #[inline(always)]
-    fn geom(&self, _b: usize, _i: usize, _j: usize, ref_len: f64, len: f64) -> BondGeom {
+    fn weights(&self, _b: usize, _i: usize, _j: usize, ref_len: f64) -> (f64, f64, f64) {
         let phi = self.phi(ref_len);
-        BondGeom {
-            ref_len,
-            len,
-            phi_ij: phi,
-            phi_ji: phi,
-            vol_j: self.node.volume,
-        }
+        (phi, phi, self.node.volume)
     }
 }
 
-/// The family of one node, as the bond loops walk it.
-struct Family<'a> {
-    i: usize,
-    /// Global index of the first bond of the family.
-    first: usize,
-    neighbors: &'a [u32],
-    ref_lengths: &'a [f64],
+/// What a bond loop reads besides the families.
+struct Sweep<'a, const D: usize, W: Weights, Dm: DamageLaw> {
+    current: &'a [Vector<D>],
+    positions: &'a [Vector<D>],
+    no_fail: &'a [bool],
+    weights: &'a W,
+    damage: &'a Dm,
+    bonds: &'a Bonds,
 }
 
-impl Family<'_> {
-    /// Calls `f(b, j, |ξ|, y_j − y_i, |y_j − y_i|)` for every intact bond b = i→j. With `failure =
-    /// Some((s0, no_fail))` it first breaks, irreversibly, each bond whose stretch exceeds s0
-    /// unless an end is in a no-fail set; the stretch is bitwise the same from either end, so
-    /// breakage is symmetric. Returns the number of bonds broken.
+/// One bond entry handed to a sweep's body: its geometry and its mutable damage record.
+struct Visit<'a, const D: usize> {
+    j: usize,
+    geom: BondGeom<D>,
+    status: &'a mut u8,
+    history: &'a mut [f64],
+    /// An end is in a no-fail set (evaluated only for laws that decide on work).
+    protected: bool,
+}
+
+impl<const D: usize, W: Weights, Dm: DamageLaw> Sweep<'_, D, W, Dm> {
+    /// Walks node i's family (entries `r`, with their status bytes and history words):
+    /// skips fully broken bonds, lets the damage law decide from the stretch when `decide`,
+    /// and calls `f` for every bond that still carries force. Returns the own halves broken.
     #[inline(always)]
-    fn visit_intact<const D: usize>(
+    fn walk<M: Material<D>>(
         &self,
-        current: &[Vector<D>],
+        i: usize,
+        r: Range<usize>,
         status: &mut [u8],
-        failure: Option<(f64, &[bool])>,
-        mut f: impl FnMut(usize, usize, f64, Vector<D>, f64),
+        history: &mut [f64],
+        decide: bool,
+        mut f: impl FnMut(Visit<D>) -> u64,
     ) -> u64 {
-        let yi = current[self.i];
+        // Everything the loop reads, in locals (the compiler keeps them in registers).
+        let (current, positions, no_fail, weights, damage) = (
+            self.current,
+            self.positions,
+            self.no_fail,
+            self.weights,
+            self.damage,
+        );
+        let yi = current[i];
+        let hw = Dm::HISTORY;
+        let neighbors = &self.bonds.neighbors[r.clone()];
+        let ref_lengths = &self.bonds.ref_lengths[r.clone()];
         let mut broke = 0;
-        for (slot, ((&j, &ref_len), st)) in self
-            .neighbors
+        for (slot, ((&j, &ref_len), st)) in neighbors
             .iter()
-            .zip(self.ref_lengths)
-            .zip(status)
+            .zip(ref_lengths)
+            .zip(status.iter_mut())
             .enumerate()
         {
-            if *st != INTACT {
+            if *st == BROKEN || (Dm::HALVES_TOGETHER && *st != INTACT) {
                 continue;
             }
             let j = j as usize;
             let y = current[j] - yi;
             let len = y.norm();
-            if let Some((s0, no_fail)) = failure {
-                if len - ref_len > s0 * ref_len && !(no_fail[self.i] || no_fail[j]) {
-                    *st = BROKEN;
-                    broke += 1;
+            let history = &mut history[slot * hw..(slot + 1) * hw];
+            let protected = || no_fail[i] || no_fail[j];
+            if decide && Dm::ON_STRETCH {
+                broke += damage.on_stretch(i, j, Stretch { len, ref_len }, protected, history, st);
+                if *st == BROKEN {
                     continue;
                 }
             }
-            f(self.first + slot, j, ref_len, y, len);
+            if len <= 0.0 {
+                continue;
+            }
+            // Both halves intact (the common case) needs no call into the law.
+            let (mu_ij, mu_ji) = if Dm::HALVES_TOGETHER || (*st == INTACT && !Dm::PARTIAL) {
+                (1.0, 1.0)
+            } else {
+                damage.factors(i, j, history, *st)
+            };
+            let (phi_ij, phi_ji, vol_j) = weights.weights(r.start + slot, i, j, ref_len);
+            let xi = if M::NEEDS_XI {
+                positions[j] - positions[i]
+            } else {
+                Vector::zeros()
+            };
+            broke += f(Visit {
+                j,
+                geom: BondGeom {
+                    ref_len,
+                    len,
+                    phi_ij,
+                    phi_ji,
+                    vol_j,
+                    mu_ij,
+                    mu_ji,
+                    y,
+                    xi,
+                },
+                status: st,
+                history,
+                protected: Dm::ON_WORK && protected(),
+            });
         }
         broke
     }
@@ -129,65 +177,98 @@ fn split_at_ends<T>(mut data: &mut [T], ends: impl Iterator<Item = usize>) -> Ve
 }
 
 impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
-    pub fn new(mut material: M, body: &Body<D>, bonds: &Bonds, rule: PartialVolume) -> Self {
+    /// Sets up the material (per-node constants from the intact families) and the damage law.
+    pub fn new(
+        mut material: M,
+        damage: Damage,
+        body: &Body<D>,
+        bonds: &Bonds,
+        rule: PartialVolume,
+    ) -> Result<Self, PointError> {
         let quad = Quadrature::for_body(rule, body, bonds);
-        material.setup(body, bonds, &quad);
+        material.setup(body, bonds, &quad)?;
         let n = body.len();
         let chunks = (0..n)
             .step_by(NODE_CHUNK)
             .map(|s| s..(s + NODE_CHUNK).min(n))
             .collect();
         let neighbors_in_bounds = bonds.neighbors.iter().all(|&j| (j as usize) < n);
-        ForceEngine {
+        Ok(ForceEngine {
             material,
+            damage,
             quad,
             vector_kernels: true,
             neighbors_in_bounds,
             points: vec![M::Point::default(); n],
             chunks,
-        }
+        })
     }
 
-    #[inline(always)]
-    fn geom(&self, b: usize, i: usize, j: usize, ref_len: f64, len: f64) -> BondGeom {
-        self.quad.geom(b, i, j, ref_len, len)
+    /// The point states of the last evaluation (θ for LPS, F and the stress for
+    /// correspondence).
+    pub fn points(&self) -> &[M::Point] {
+        &self.points
     }
 
-    /// Evaluates failure and internal force densities into `state.force`; returns the number
-    /// of directed bonds broken by this evaluation.
-    ///
-    /// Failure is decided in the first sweep over the bonds of a step, from the bond stretch
-    /// alone, which is bitwise the same seen from either end: breakage is symmetric.
+    /// Evaluates damage and internal force densities into `state.force`; returns the number
+    /// of directed bond halves broken by this evaluation (each bond of a law shared by both
+    /// ends counts twice, once per entry).
     pub fn compute(&mut self, body: &Body<D>, bonds: &Bonds, state: &mut State<D>) -> u64 {
-        // Dispatch once on the weight source: on uniform grids φ depends on |ξ| only and no
-        // per-neighbour node data is read.
-        match self.quad.uniform() {
-            Some(uniform) => self.compute_with(&uniform, body, bonds, state),
-            None => {
-                let quad = self.quad.clone();
-                self.compute_with(&quad, body, bonds, state)
-            }
-        }
+        // Dispatch once on the damage law and the weight source: on uniform grids φ depends
+        // on |ξ| only and no per-neighbour node data is read.
+        let damage = std::mem::replace(&mut self.damage, Damage::none());
+        let uniform = self.quad.uniform();
+        let quad = self.quad.clone();
+        let broke = match (&damage, &uniform) {
+            (Damage::CriticalStretch(d), Some(u)) => match d.s0 {
+                PerNode::Uniform(s0) => {
+                    self.compute_with(u, &UniformCriticalStretch { s0 }, body, bonds, state)
+                }
+                PerNode::Varying(_) => self.compute_with(u, d, body, bonds, state),
+            },
+            (Damage::CriticalStretch(d), None) => match d.s0 {
+                PerNode::Uniform(s0) => {
+                    self.compute_with(&quad, &UniformCriticalStretch { s0 }, body, bonds, state)
+                }
+                PerNode::Varying(_) => self.compute_with(&quad, d, body, bonds, state),
+            },
+            (Damage::CriticalEnergy(d), Some(u)) => self.compute_with(u, d, body, bonds, state),
+            (Damage::CriticalEnergy(d), None) => self.compute_with(&quad, d, body, bonds, state),
+            (Damage::Softening(d), Some(u)) => self.compute_with(u, d, body, bonds, state),
+            (Damage::Softening(d), None) => self.compute_with(&quad, d, body, bonds, state),
+            (Damage::Mixed(d), _) => self.compute_with(&quad, d, body, bonds, state),
+        };
+        self.damage = damage;
+        broke
     }
 
-    fn compute_with<W: Weights>(
+    fn compute_with<W: Weights, Dm: DamageLaw>(
         &mut self,
         weights: &W,
+        damage: &Dm,
         body: &Body<D>,
         bonds: &Bonds,
         state: &mut State<D>,
     ) -> u64 {
-        let s0 = self.material.critical_stretch();
         let no_fail: &[bool] = &body.no_fail;
+        let hw = Dm::HISTORY;
+        debug_assert_eq!(state.history.len(), bonds.len() * hw);
         let mut newly_broken = 0u64;
-        // The AVX2 kernels, where the model has them: 3D, uniform grid, x86-64 with AVX2, and
-        // neighbour indices known to be in bounds (the kernels' gathers rely on it).
-        let vector =
-            if D == 3 && self.vector_kernels && self.neighbors_in_bounds && simd::available() {
-                self.quad.uniform()
-            } else {
-                None
-            };
+        // The AVX2 kernels, where the model has them: 3D, uniform grid, one critical stretch,
+        // x86-64 with AVX2, and neighbour indices known to be in bounds (the kernels' gathers
+        // rely on it).
+        let s0 = damage.uniform_critical_stretch();
+        let vector = if D == 3
+            && self.vector_kernels
+            && self.neighbors_in_bounds
+            && s0.is_some()
+            && simd::available()
+        {
+            self.quad.uniform()
+        } else {
+            None
+        };
+        let s0 = s0.unwrap_or(f64::INFINITY);
         // The current positions as one flat x, y, z array.
         assert_eq!(
             std::mem::size_of::<Vector<D>>(),
@@ -201,25 +282,33 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 state.current.len() * D,
             )
         };
+        let bond_ends = || self.chunks.iter().map(|c| bonds.offsets[c.end]);
 
         if M::NEEDS_PREPASS {
             let (material, chunks) = (&self.material, &self.chunks);
-            let status_chunks = split_at_ends(
-                &mut state.status,
-                chunks.iter().map(|c| bonds.offsets[c.end]),
-            );
+            let status_chunks = split_at_ends(&mut state.status, bond_ends());
+            let history_chunks = split_at_ends(&mut state.history, bond_ends().map(|e| e * hw));
             let point_chunks = split_at_ends(&mut self.points, chunks.iter().map(|c| c.end));
-            let current = &state.current;
+            let sweep = Sweep {
+                current: &state.current,
+                positions: &body.positions,
+                no_fail,
+                weights,
+                damage,
+                bonds,
+            };
             newly_broken += chunks
                 .par_iter()
                 .zip(status_chunks)
+                .zip(history_chunks)
                 .zip(point_chunks)
-                .map(|((nodes, status), points)| {
+                .map(|(((nodes, status), history), points)| {
                     let base = bonds.offsets[nodes.start];
                     let mut broke = 0u64;
                     for (k, i) in nodes.clone().enumerate() {
                         let r = bonds.family(i);
                         let status = &mut status[r.start - base..r.end - base];
+                        let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
                         if let Some(w) = &vector {
                             let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
                             // SAFETY: AVX2 is available and neighbour indices are in bounds.
@@ -232,20 +321,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             }
                         }
                         let mut acc = M::Point::default();
-                        let family = Family {
-                            i,
-                            first: r.start,
-                            neighbors: &bonds.neighbors[r.clone()],
-                            ref_lengths: &bonds.ref_lengths[r.clone()],
-                        };
-                        broke += family.visit_intact(
-                            current,
-                            status,
-                            Some((s0, no_fail)),
-                            |b, j, ref_len, _, len| {
-                                material.accumulate(&mut acc, &weights.geom(b, i, j, ref_len, len));
-                            },
-                        );
+                        broke += sweep.walk::<M>(i, r, status, history, true, |v| {
+                            material.accumulate(i, &mut acc, &v.geom);
+                            0
+                        });
                         points[k] = material.finish_point(i, acc);
                     }
                     broke
@@ -253,29 +332,36 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 .sum::<u64>();
         }
 
-        let status_chunks = split_at_ends(
-            &mut state.status,
-            self.chunks.iter().map(|c| bonds.offsets[c.end]),
-        );
+        let status_chunks = split_at_ends(&mut state.status, bond_ends());
+        let history_chunks = split_at_ends(&mut state.history, bond_ends().map(|e| e * hw));
         let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
         let (material, points) = (&self.material, &self.points);
-        let current = &state.current;
-        // A two-pass model decided failure in its pre-pass.
-        let failure = (!M::NEEDS_PREPASS).then_some((s0, no_fail));
+        let sweep = Sweep {
+            current: &state.current,
+            positions: &body.positions,
+            no_fail,
+            weights,
+            damage,
+            bonds,
+        };
+        // A two-pass model decided stretch-based failure in its pre-pass.
+        let decide = !M::NEEDS_PREPASS;
         newly_broken += self
             .chunks
             .par_iter()
             .zip(status_chunks)
+            .zip(history_chunks)
             .zip(force_chunks)
-            .map(|((nodes, status), forces)| {
+            .map(|(((nodes, status), history), forces)| {
                 let base = bonds.offsets[nodes.start];
                 let mut broke = 0u64;
                 for (k, i) in nodes.clone().enumerate() {
                     let r = bonds.family(i);
                     let status = &mut status[r.start - base..r.end - base];
+                    let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
                     if let Some(w) = &vector {
                         let mut nb =
-                            NodeBonds::of(i, flat, bonds, status, no_fail, failure.map(|f| f.0));
+                            NodeBonds::of(i, flat, bonds, status, no_fail, decide.then_some(s0));
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
                         if let Some((f, nb_broken)) =
                             unsafe { material.vector_force(&mut nb, w, points) }
@@ -287,21 +373,43 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     }
                     let pi = &points[i];
                     let mut f = Vector::<D>::zeros();
-                    let family = Family {
-                        i,
-                        first: r.start,
-                        neighbors: &bonds.neighbors[r.clone()],
-                        ref_lengths: &bonds.ref_lengths[r.clone()],
-                    };
-                    broke +=
-                        family.visit_intact(current, status, failure, |b, j, ref_len, y, len| {
-                            if len > 0.0 {
-                                let g = weights.geom(b, i, j, ref_len, len);
-                                f += y
-                                    * (material.pair_force_per_length(i, j, &g, pi, &points[j])
-                                        * g.vol_j);
-                            }
-                        });
+                    broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
+                        let Visit {
+                            j,
+                            mut geom,
+                            status,
+                            history,
+                            protected,
+                        } = v;
+                        let pj = &points[j];
+                        if !Dm::ON_WORK {
+                            f += pair_force(material, i, j, &geom, pi, pj);
+                            return 0;
+                        }
+                        // Energy-based failure needs the pair force first: record its work,
+                        // then drop the halves that broke.
+                        let (force, along) = pair_force_and_axial(material, i, j, &geom, pi, pj);
+                        let before = *status;
+                        let broke = damage.on_work(
+                            i,
+                            j,
+                            along,
+                            geom.len - geom.ref_len,
+                            protected,
+                            history,
+                            status,
+                        );
+                        if *status == BROKEN {
+                            return broke;
+                        }
+                        if *status != before {
+                            (geom.mu_ij, geom.mu_ji) = damage.factors(i, j, history, *status);
+                            f += pair_force(material, i, j, &geom, pi, pj);
+                        } else {
+                            f += force;
+                        }
+                        broke
+                    });
                     forces[k] = f;
                 }
                 broke
@@ -318,26 +426,54 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .into_par_iter()
             .map(|i| {
                 let pi = &self.points[i];
-                let mut sum = 0.0;
-                for b in bonds.family(i) {
-                    if state.status[b] != INTACT {
-                        continue;
-                    }
-                    let j = bonds.neighbors[b] as usize;
-                    let len = (state.current[j] - state.current[i]).norm();
-                    sum += self.material.bond_energy(
-                        i,
-                        &self.geom(b, i, j, bonds.ref_lengths[b], len),
-                        pi,
-                    );
-                }
+                // A fold from +0.0 (`sum` would start from −0.0).
+                let sum = self
+                    .intact_own_halves(body, bonds, state, i)
+                    .fold(0.0, |acc, g| acc + self.material.bond_energy(i, &g, pi));
                 self.material.point_energy(i, pi, sum)
             })
             .collect()
     }
 
-    /// Peridynamic stress of node i, σ_i = Σ_j t_i⟨ξ⟩ (M ⊗ ξ) φ_ij V_j (Silling et al. 2007:
-    /// the stress of a homogeneous deformation is ∫ T⟨ξ⟩ ⊗ ξ dV). Row a, column b: M_a ξ_b.
+    /// The bonds of node i whose own half is not broken, with their geometry now.
+    fn intact_own_halves<'a>(
+        &'a self,
+        body: &'a Body<D>,
+        bonds: &'a Bonds,
+        state: &'a State<D>,
+        i: usize,
+    ) -> impl Iterator<Item = BondGeom<D>> + 'a {
+        let hw = self.damage.history_words();
+        bonds
+            .family(i)
+            .filter(move |&b| state.status[b] & OWN_BROKEN == 0)
+            .map(move |b| {
+                let j = bonds.neighbors[b] as usize;
+                let y = state.current[j] - state.current[i];
+                let l = bonds.ref_lengths[b];
+                let (phi_ij, phi_ji) = self.quad.phi_pair(b, i, j, l);
+                let (mu_ij, mu_ji) = if state.status[b] == INTACT && hw == 0 {
+                    (1.0, 1.0)
+                } else {
+                    self.damage
+                        .factors(i, j, &state.history[b * hw..(b + 1) * hw], state.status[b])
+                };
+                BondGeom {
+                    ref_len: l,
+                    len: y.norm(),
+                    phi_ij,
+                    phi_ji,
+                    vol_j: body.volumes[j],
+                    mu_ij,
+                    mu_ji,
+                    y,
+                    xi: body.positions[j] - body.positions[i],
+                }
+            })
+    }
+
+    /// Peridynamic stress of node i, σ_i = Σ_j T_i⟨ξ⟩ ⊗ ξ φ_ij μ_ij V_j (Silling et al. 2007:
+    /// the stress of a homogeneous deformation is ∫ T⟨ξ⟩ ⊗ ξ dV). Row a, column b: T_a ξ_b.
     pub fn stress(
         &self,
         body: &Body<D>,
@@ -347,18 +483,14 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     ) -> [[f64; D]; D] {
         let mut sigma = [[0.0; D]; D];
         let pi = &self.points[i];
-        for b in bonds.family(i) {
-            if state.status[b] != INTACT {
+        for g in self.intact_own_halves(body, bonds, state, i) {
+            if g.len <= 0.0 {
                 continue;
             }
-            let j = bonds.neighbors[b] as usize;
-            let y = state.current[j] - state.current[i];
-            let xi = body.positions[j] - body.positions[i];
-            let g = self.geom(b, i, j, bonds.ref_lengths[b], y.norm());
-            let t = self.material.force_state(i, &g, pi) * g.weight();
-            for a in 0..D {
-                for c in 0..D {
-                    sigma[a][c] += t * y[a] / g.len * xi[c];
+            let t = self.material.force_state_vector(i, &g, pi) * g.weight();
+            for (a, row) in sigma.iter_mut().enumerate() {
+                for (c, s) in row.iter_mut().enumerate() {
+                    *s += t[a] * g.xi[c];
                 }
             }
         }
@@ -374,8 +506,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .sum()
     }
 
-    /// Damage index per node: broken over initial bond volume, d = 1 − Σ μ φ V_j / Σ φ V_j
-    /// (seed 000, Eq. 10).
+    /// Damage index per node: the broken fraction of its own bond volume,
+    /// d = 1 − Σ μ φ V_j / Σ φ V_j (seed 000, Eq. 10), a half counting as broken once it has
+    /// failed completely.
     pub fn damage(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>) -> Vec<f64> {
         (0..body.len())
             .into_par_iter()
@@ -385,7 +518,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let j = bonds.neighbors[b] as usize;
                     let w = self.quad.phi_pair(b, i, j, bonds.ref_lengths[b]).0 * body.volumes[j];
                     total += w;
-                    if state.status[b] != INTACT {
+                    if state.status[b] & OWN_BROKEN != 0 {
                         broken += w;
                     }
                 }
@@ -398,10 +531,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .collect()
     }
 
-    /// Stable time step of Silling & Askari (2005): Δt < sqrt(2ρ / Σ_j C_ij w_ij) at every node,
-    /// with C = c/|ξ| the linearised bond stiffness.
+    /// Stable time step of Silling & Askari (2005): Δt < sqrt(2ρ_i / Σ_j C_ij w_ij) at every
+    /// node, with C the linearised bond stiffness, averaged over the bond's two halves.
     pub fn stable_time_step(&self, body: &Body<D>, bonds: &Bonds) -> f64 {
-        let rho = self.material.density();
         (0..body.len())
             .into_par_iter()
             .map(|i| {
@@ -410,17 +542,56 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     .map(|b| {
                         let j = bonds.neighbors[b] as usize;
                         let l = bonds.ref_lengths[b];
-                        self.material.bond_stiffness(l)
-                            * self.quad.phi_pair(b, i, j, l).0
+                        let (phi_ij, phi_ji) = self.quad.phi_pair(b, i, j, l);
+                        0.5 * (self.material.bond_stiffness(i, l) * phi_ij
+                            + self.material.bond_stiffness(j, l) * phi_ji)
                             * body.volumes[j]
                     })
                     .sum();
                 if k > 0.0 {
-                    (2.0 * rho / k).sqrt()
+                    (2.0 * self.material.density(i) / k).sqrt()
                 } else {
                     f64::INFINITY
                 }
             })
             .reduce(|| f64::INFINITY, f64::min)
+    }
+}
+
+/// The pair force density vector of bond i→j on node i (per unit V_j is not applied yet).
+#[inline(always)]
+fn pair_force<const D: usize, M: Material<D>>(
+    material: &M,
+    i: usize,
+    j: usize,
+    g: &BondGeom<D>,
+    pi: &M::Point,
+    pj: &M::Point,
+) -> Vector<D> {
+    if M::CENTRAL {
+        g.y * (material.pair_force_per_length(i, j, g, pi, pj) * g.vol_j)
+    } else {
+        material.pair_force(i, j, g, pi, pj) * g.vol_j
+    }
+}
+
+/// The pair force (times V_j) and its component along the deformed bond (without V_j), the
+/// force conjugate to the extension that energy-based failure integrates.
+#[inline(always)]
+fn pair_force_and_axial<const D: usize, M: Material<D>>(
+    material: &M,
+    i: usize,
+    j: usize,
+    g: &BondGeom<D>,
+    pi: &M::Point,
+    pj: &M::Point,
+) -> (Vector<D>, f64) {
+    if M::CENTRAL {
+        let per_length = material.pair_force_per_length(i, j, g, pi, pj);
+        (g.y * (per_length * g.vol_j), per_length * g.len)
+    } else {
+        let f = material.pair_force(i, j, g, pi, pj);
+        let along = f.dot(&g.y) / g.len;
+        (f * g.vol_j, along)
     }
 }

@@ -4,4 +4,4 @@ pub mod forces;
 pub mod verlet;
 
 pub use forces::ForceEngine;
-pub use verlet::{Simulation, StepError};
+pub use verlet::{Fields, Simulation, StepError};

@@ -5,8 +5,9 @@ use super::ForceEngine;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume};
 use crate::counters::Counters;
+use crate::damage::Damage;
 use crate::loading::Loading;
-use crate::material::Material;
+use crate::material::{Material, PointError};
 use crate::math::Vector;
 use crate::state::State;
 use rayon::prelude::*;
@@ -15,6 +16,8 @@ use std::time::Instant;
 /// A run that cannot continue, with the diagnosis.
 #[derive(Debug, thiserror::Error)]
 pub enum StepError {
+    #[error("the material cannot be set up on these bonds: {0}")]
+    Setup(#[from] PointError),
     #[error("the run went unstable at step {step} (t = {time:e} s): {quantity} of node {node} at x = {position:?} is {value}; lower the time step (safety_factor) or check the loads")]
     Unstable {
         step: u64,
@@ -38,6 +41,8 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     pub dt: f64,
     /// Silling–Askari stable time step estimate (s).
     pub dt_stable: f64,
+    /// Mass density of each node (kg/m³).
+    pub densities: Vec<f64>,
     pub counters: Counters,
     /// Constrained (node, component) pairs, and the same as a per-node mask.
     constrained: Vec<(usize, usize)>,
@@ -46,24 +51,32 @@ pub struct Simulation<const D: usize, M: Material<D>> {
 
 impl<const D: usize, M: Material<D>> Simulation<D, M> {
     /// Builds the force engine, evaluates the initial forces and the stable time step.
-    /// `dt = None` uses `safety_factor × dt_stable`.
+    /// `dt = None` uses `safety_factor × dt_stable`. Fails when the material cannot be set up
+    /// on these families (e.g. a correspondence node without enough bonds).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         body: Body<D>,
         bonds: Bonds,
         material: M,
+        damage: impl Into<Damage>,
         rule: PartialVolume,
         loading: Loading<D>,
         dt: Option<f64>,
         safety_factor: f64,
-    ) -> Self {
-        let engine = ForceEngine::new(material, &body, &bonds, rule);
+    ) -> Result<Self, StepError> {
+        let damage = damage.into();
+        let history_words = damage.history_words();
+        let engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
         let dt_stable = engine.stable_time_step(&body, &bonds);
+        let densities = (0..body.len())
+            .map(|i| engine.material.density(i))
+            .collect();
         let mask = loading.constrained_mask(body.len());
         let constrained = (0..body.len())
             .flat_map(|i| (0..D).map(move |k| (i, k)))
             .filter(|&(i, k)| mask[i][k])
             .collect();
-        let state = State::new(&body, &bonds);
+        let state = State::new(&body, &bonds, history_words);
         let mut sim = Simulation {
             body,
             bonds,
@@ -72,6 +85,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             state,
             dt: dt.unwrap_or(safety_factor * dt_stable),
             dt_stable,
+            densities,
             counters: Counters::default(),
             constrained,
             constrained_mask: mask,
@@ -79,49 +93,50 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         sim.loading
             .apply_displacements(&sim.body, &mut sim.state, 0.0);
         sim.loading.apply_end_velocities(&mut sim.state, 0.0);
-        sim.refresh_forces();
-        sim
+        sim.refresh_forces()?;
+        Ok(sim)
     }
 
     /// v += dt/2 · a with a = (f + b)/ρ − η v, in parallel (each node on its own).
-    fn half_kick(&mut self, rho: f64) {
+    fn half_kick(&mut self) {
         let (half, eta) = (0.5 * self.dt, self.loading.damping);
         let s = &mut self.state;
-        (&mut s.v, &s.force, &s.body_force)
+        (&mut s.v, &s.force, &s.body_force, &self.densities)
             .into_par_iter()
             .with_min_len(4096)
-            .for_each(|(v, f, b)| {
+            .for_each(|(v, f, b, &rho)| {
                 let a = (f + b) / rho - *v * eta;
                 *v += a * half;
             });
     }
 
     /// Viscous power Σ ρ V η |v|², summed in a fixed order (deterministic for any thread count).
-    fn viscous_power(&self, rho: f64) -> f64 {
+    fn viscous_power(&self) -> f64 {
         self.state
             .v
             .iter()
             .zip(&self.body.volumes)
-            .map(|(v, vol)| rho * vol * self.loading.damping * v.norm_squared())
+            .zip(&self.densities)
+            .map(|((v, vol), rho)| rho * vol * self.loading.damping * v.norm_squared())
             .sum()
     }
 
     /// Re-evaluates forces (and body forces) at the current state; call it after changing
     /// `state.u` by hand (an initial displacement field) so the next step starts consistent.
-    pub fn refresh_forces(&mut self) -> u64 {
+    /// Returns the bond halves broken.
+    pub fn refresh_forces(&mut self) -> Result<u64, StepError> {
         let broken = self
             .engine
             .compute(&self.body, &self.bonds, &mut self.state);
         let t = self.state.time;
         self.loading.body_forces(&mut self.state, t);
-        broken
+        Ok(broken)
     }
 
     /// One velocity-Verlet step: half-kick → prescribed velocities → drift → prescribed
     /// displacements → forces → half-kick → end-of-step velocities.
     pub fn step(&mut self) -> Result<u64, StepError> {
         let dt = self.dt;
-        let rho = self.engine.material.density();
         let t0 = self.state.time;
         let t1 = t0 + dt;
         let started = Instant::now();
@@ -141,11 +156,11 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .collect();
         let u_old_free_work = self.body_force_power_start();
 
-        self.half_kick(rho);
+        self.half_kick();
         self.loading
             .apply_half_step_velocity(&mut self.state, t0 + 0.5 * dt);
         let dissipated = if self.loading.damping > 0.0 {
-            self.viscous_power(rho) * dt
+            self.viscous_power() * dt
         } else {
             0.0
         };
@@ -170,7 +185,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         self.counters.force += started.elapsed();
 
         let started = Instant::now();
-        self.half_kick(rho);
+        self.half_kick();
         self.loading.apply_end_velocities(&mut self.state, t1);
 
         // Work of the constraints: ΔKE of the dof minus the work of the other forces on it.
@@ -178,7 +193,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         for (&(i, k), &(u0, v0, f0)) in self.constrained.iter().zip(&before) {
             let (u1, v1) = (self.state.u[i][k], self.state.v[i][k]);
             let f1 = self.body.volumes[i] * (self.state.force[i][k] + self.state.body_force[i][k]);
-            work += 0.5 * rho * self.body.volumes[i] * (v1 * v1 - v0 * v0)
+            work += 0.5 * self.densities[i] * self.body.volumes[i] * (v1 * v1 - v0 * v0)
                 - 0.5 * (f0 + f1) * (u1 - u0);
         }
         self.state.external_work += work;
@@ -246,8 +261,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
 
     /// Kinetic energy (J).
     pub fn kinetic_energy(&self) -> f64 {
-        self.state
-            .kinetic_energy(&self.body, self.engine.material.density())
+        self.state.kinetic_energy(&self.body, &self.densities)
     }
 
     /// Strain energy (J).
@@ -262,5 +276,41 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .iter()
             .map(|&i| self.state.force[i as usize] * self.body.volumes[i as usize])
             .fold(Vector::zeros(), |a, b| a + b)
+    }
+}
+
+/// What observers may read of a simulation, whatever its material.
+pub trait Fields<const D: usize> {
+    fn body(&self) -> &Body<D>;
+    fn state(&self) -> &State<D>;
+    /// Damage index per node.
+    fn damage(&self) -> Vec<f64>;
+    /// Strain energy density per node (J/m³).
+    fn energy_density(&self) -> Vec<f64>;
+    /// Kinetic energy (J).
+    fn kinetic_energy(&self) -> f64;
+    /// External force (N) that holds a node set.
+    fn reaction(&self, nodes: &[u32]) -> Vector<D>;
+}
+
+impl<const D: usize, M: Material<D>> Fields<D> for Simulation<D, M> {
+    fn body(&self) -> &Body<D> {
+        &self.body
+    }
+    fn state(&self) -> &State<D> {
+        &self.state
+    }
+    fn damage(&self) -> Vec<f64> {
+        self.engine.damage(&self.body, &self.bonds, &self.state)
+    }
+    fn energy_density(&self) -> Vec<f64> {
+        self.engine
+            .energy_density(&self.body, &self.bonds, &self.state)
+    }
+    fn kinetic_energy(&self) -> f64 {
+        Simulation::kinetic_energy(self)
+    }
+    fn reaction(&self, nodes: &[u32]) -> Vector<D> {
+        Simulation::reaction(self, nodes)
     }
 }

@@ -3,10 +3,14 @@
 
 use peridyn::body::Body;
 use peridyn::bonds::{search::build_bonds, Bonds, PartialVolume};
+use peridyn::damage::Damage;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
-use peridyn::material::lps::Influence;
-use peridyn::material::{Dimensionality, Elasticity, Lps, MicromodulusProfile, Pmb};
+use peridyn::loading::Loading;
+use peridyn::material::{
+    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+};
+use peridyn::solver::Simulation;
 
 pub const THICKNESS: f64 = 1e-3;
 
@@ -42,19 +46,11 @@ pub fn centre_node<const D: usize>(body: &Body<D>) -> usize {
         .unwrap()
 }
 
-pub fn pmb(
-    dim: Dimensionality,
-    e: f64,
-    horizon: f64,
-    profile: MicromodulusProfile,
-    s0: f64,
-) -> Pmb {
-    let mut m = Pmb::calibrated(e, None, 2000.0, dim, profile, horizon, THICKNESS);
-    m.s0 = s0;
-    m
+pub fn pmb(dim: Dimensionality, e: f64, horizon: f64, profile: MicromodulusProfile) -> Pmb {
+    Pmb::calibrated(e, 2000.0, dim, profile, horizon, THICKNESS)
 }
 
-pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64, s0: f64) -> Lps {
+pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64) -> Lps {
     Lps::new(
         Elasticity {
             youngs_modulus: e,
@@ -63,10 +59,30 @@ pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64, s0: f64) -> Lps {
         },
         Influence::Constant,
         horizon,
-        s0,
         2000.0,
         THICKNESS,
     )
+}
+
+/// A simulation at rest with no loads, dt = 0.8 × the stable estimate.
+pub fn simulation<const D: usize, M: Material<D>>(
+    body: Body<D>,
+    bonds: Bonds,
+    material: M,
+    damage: impl Into<Damage>,
+    rule: PartialVolume,
+) -> Simulation<D, M> {
+    Simulation::new(
+        body,
+        bonds,
+        material,
+        damage,
+        rule,
+        Loading::default(),
+        None,
+        0.8,
+    )
+    .expect("the test model sets up")
 }
 
 /// Strain tensor padded to 3×3 from a D×D array.

@@ -1,0 +1,260 @@
+//! Damage laws: when and how much a bond's force is lost. A policy of its own, combined with
+//! any material; the engine (`solver::forces`) calls it for every bond it visits.
+//!
+//! A directed bond entry i→j carries two halves: the force state of node i on the bond
+//! (T_i⟨ξ⟩, "own") and that of node j (T_j⟨−ξ⟩, "other"). Each half follows the damage law
+//! of its own node, so a bond and its dual break independently (dual-horizon PD, seed 003
+//! §2.2) and a bond between two blocks fails half by half. Laws decide from quantities that
+//! are bitwise the same from either end (stretch, pair work), so the entries i→j and j→i
+//! always agree and breakage is symmetric where the two ends share a law.
+//!
+//! Adding a law touches: its file here, a variant of `Damage` (and its `match` arms below),
+//! its deck twin in `deck/schema.rs`, and the fracture-energy test.
+
+pub mod critical_energy;
+pub mod critical_stretch;
+pub mod mixed;
+pub mod porosity;
+pub mod softening;
+
+pub use critical_energy::CriticalEnergy;
+pub use critical_stretch::CriticalStretch;
+pub use mixed::MixedDamage;
+pub use softening::Softening;
+
+pub use crate::per_node::PerNode;
+
+pub use crate::state::{BROKEN, INTACT, OTHER_BROKEN, OWN_BROKEN};
+
+/// The remaining fractions (μ_ij, μ_ji) of the two halves of a bond with binary damage.
+#[inline(always)]
+pub fn binary_factors(status: u8) -> (f64, f64) {
+    (
+        if status & OWN_BROKEN == 0 { 1.0 } else { 0.0 },
+        if status & OTHER_BROKEN == 0 { 1.0 } else { 0.0 },
+    )
+}
+
+/// The current and reference length of a bond, as the laws see it.
+#[derive(Debug, Clone, Copy)]
+pub struct Stretch {
+    pub len: f64,
+    pub ref_len: f64,
+}
+
+impl Stretch {
+    /// s = (|ξ+η| − |ξ|)/|ξ| (seed 001, Eq. 3).
+    #[inline(always)]
+    pub fn s(&self) -> f64 {
+        (self.len - self.ref_len) / self.ref_len
+    }
+    /// Whether s exceeds `limit`, written without a division (bitwise the same from either end).
+    #[inline(always)]
+    pub fn exceeds(&self, limit: f64) -> bool {
+        self.len - self.ref_len > limit * self.ref_len
+    }
+}
+
+/// A damage law, written for the halves of one bond entry i→j; the engine walks the families.
+///
+/// A law records what it needs in the entry's history (the same numbers from either end), then
+/// decides each half with the parameters of the node that owns it. The provided `on_stretch`,
+/// `on_work` and `factors` are what the engine calls.
+pub trait DamageLaw: Sync + Send {
+    /// f64 words of history per directed bond entry (0: none is stored).
+    const HISTORY: usize = 0;
+    /// Decides from the stretch, in the first sweep over a node's bonds in a step.
+    const ON_STRETCH: bool = false;
+    /// Decides from the work done on the bond, in the force sweep.
+    const ON_WORK: bool = false;
+    /// μ can lie strictly between 0 and 1 (softening); otherwise it is 0 or 1.
+    const PARTIAL: bool = false;
+    /// The two halves of a bond always break together (one law and one set of parameters
+    /// for every node): the engine treats any broken bit as a broken bond and every bond it
+    /// visits as whole, μ = 1.
+    const HALVES_TOGETHER: bool = false;
+
+    /// Records the bond's stretch in its history (e.g. the largest stretch so far).
+    #[inline(always)]
+    fn record_stretch(&self, _st: Stretch, _history: &mut [f64]) {}
+
+    /// Whether the half owned by `node` fails at this stretch (after `record_stretch`).
+    #[inline(always)]
+    fn fails_on_stretch(&self, _node: usize, _st: Stretch, _history: &[f64]) -> bool {
+        false
+    }
+
+    /// Records the work of the pair force: `force` is the pair force density along the
+    /// deformed bond (N/m⁶, conjugate to the extension), `extension` = |ξ+η| − |ξ|.
+    #[inline(always)]
+    fn record_work(&self, _force: f64, _extension: f64, _history: &mut [f64]) {}
+
+    /// Whether the half owned by `node` fails after `record_work`.
+    #[inline(always)]
+    fn fails_on_work(&self, _node: usize, _extension: f64, _history: &[f64]) -> bool {
+        false
+    }
+
+    /// Remaining fraction of the intact half owned by `node` (softening); 1 otherwise.
+    #[inline(always)]
+    fn factor(&self, _node: usize, _history: &[f64]) -> f64 {
+        1.0
+    }
+
+    /// The critical stretch, if this is a critical-stretch law with one value for every
+    /// node (the AVX2 kernels implement only that law).
+    fn uniform_critical_stretch(&self) -> Option<f64> {
+        None
+    }
+
+    /// First sweep: records the stretch and breaks the halves that fail; `protected()`: an end
+    /// is in a no-fail set (nothing is recorded, nothing breaks; asked only when needed).
+    /// Returns 1 if node i's own half broke now.
+    #[inline(always)]
+    fn on_stretch(
+        &self,
+        i: usize,
+        j: usize,
+        st: Stretch,
+        protected: impl Fn() -> bool,
+        history: &mut [f64],
+        status: &mut u8,
+    ) -> u64 {
+        if protected() {
+            return 0;
+        }
+        self.record_stretch(st, history);
+        break_halves(
+            status,
+            self.fails_on_stretch(i, st, history),
+            self.fails_on_stretch(j, st, history),
+        )
+    }
+
+    /// Force sweep: records the work and breaks the halves that fail. Returns 1 if node i's
+    /// own half broke now.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn on_work(
+        &self,
+        i: usize,
+        j: usize,
+        force: f64,
+        extension: f64,
+        protected: bool,
+        history: &mut [f64],
+        status: &mut u8,
+    ) -> u64 {
+        self.record_work(force, extension, history);
+        if protected {
+            return 0;
+        }
+        break_halves(
+            status,
+            self.fails_on_work(i, extension, history),
+            self.fails_on_work(j, extension, history),
+        )
+    }
+
+    /// (μ_ij, μ_ji) of an entry that is not fully broken: 1 intact, 0 broken, between for a
+    /// softened half.
+    #[inline(always)]
+    fn factors(&self, i: usize, j: usize, history: &[f64], status: u8) -> (f64, f64) {
+        let (own, other) = binary_factors(status);
+        if Self::PARTIAL {
+            (
+                own * self.factor(i, history),
+                other * self.factor(j, history),
+            )
+        } else {
+            (own, other)
+        }
+    }
+}
+
+/// Every damage law a body can use: the engine matches it once per force evaluation.
+#[derive(Debug, Clone)]
+pub enum Damage {
+    CriticalStretch(CriticalStretch),
+    CriticalEnergy(CriticalEnergy),
+    Softening(Softening),
+    /// Different laws in different blocks.
+    Mixed(MixedDamage),
+}
+
+impl Damage {
+    /// f64 words of history per directed bond.
+    pub fn history_words(&self) -> usize {
+        match self {
+            Damage::CriticalStretch(_) => CriticalStretch::HISTORY,
+            Damage::CriticalEnergy(_) => CriticalEnergy::HISTORY,
+            Damage::Softening(_) => Softening::HISTORY,
+            Damage::Mixed(_) => MixedDamage::HISTORY,
+        }
+    }
+
+    /// Bytes per directed bond this law stores.
+    pub fn bytes_per_bond(&self) -> usize {
+        8 * self.history_words()
+    }
+
+    /// A critical-stretch law that never breaks a bond.
+    pub fn none() -> Self {
+        Damage::CriticalStretch(CriticalStretch::never())
+    }
+
+    /// (μ_ij, μ_ji) of a bond entry (see `DamageLaw::factors`).
+    pub fn factors(&self, i: usize, j: usize, history: &[f64], status: u8) -> (f64, f64) {
+        match self {
+            Damage::CriticalStretch(d) => d.factors(i, j, history, status),
+            Damage::CriticalEnergy(d) => d.factors(i, j, history, status),
+            Damage::Softening(d) => d.factors(i, j, history, status),
+            Damage::Mixed(d) => d.factors(i, j, history, status),
+        }
+    }
+
+    /// Short name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Damage::CriticalStretch(_) => "critical stretch",
+            Damage::CriticalEnergy(_) => "critical energy",
+            Damage::Softening(s) => s.name(),
+            Damage::Mixed(_) => "per block",
+        }
+    }
+}
+
+impl From<CriticalStretch> for Damage {
+    fn from(d: CriticalStretch) -> Self {
+        Damage::CriticalStretch(d)
+    }
+}
+impl From<CriticalEnergy> for Damage {
+    fn from(d: CriticalEnergy) -> Self {
+        Damage::CriticalEnergy(d)
+    }
+}
+impl From<Softening> for Damage {
+    fn from(d: Softening) -> Self {
+        Damage::Softening(d)
+    }
+}
+impl From<MixedDamage> for Damage {
+    fn from(d: MixedDamage) -> Self {
+        Damage::Mixed(d)
+    }
+}
+
+/// Helper for a law with one decision per half: sets the bits of the halves that fail and
+/// returns 1 if node i's own half broke now.
+#[inline(always)]
+pub fn break_halves(status: &mut u8, own_fails: bool, other_fails: bool) -> u64 {
+    let before = *status;
+    if own_fails {
+        *status |= OWN_BROKEN;
+    }
+    if other_fails {
+        *status |= OTHER_BROKEN;
+    }
+    ((*status & !before) & OWN_BROKEN) as u64
+}

@@ -1,0 +1,341 @@
+//! Non-ordinary state-based correspondence material (Silling et al. 2007; seed 004,
+//! Eqs. 6–11) with zero-energy-mode control after Wan et al. 2019 (seed 004, Eqs. 12–15) or
+//! Silling's bond-based hourglass force (Silling 2017, as in Peridigm), in 3D, plane stress
+//! and plane strain.
+//!
+//! Per node: shape tensor K = Σ ω ξ⊗ξ w (Eq. 7), deformation gradient F = (Σ ω Y⊗ξ w) K⁻¹
+//! (Eq. 6), Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), stress σ = C:E (Eq. 10), first
+//! Piola–Kirchhoff stress P = det(F) σ F⁻ᵀ (Eq. 9; the paper prints F⁻¹, an erratum: the
+//! Piola transform of a Cauchy stress is J σ F⁻ᵀ), and force state T⟨ξ⟩ = ω P K⁻¹ ξ (Eq. 8);
+//! w = φ μ V_j is the bond's quadrature weight, μ its intact fraction.
+//!
+//! A node whose shape tensor is singular or ill-conditioned (fewer than D independent intact
+//! bonds) or whose F is singular has no force state of its own ("detached", as in Peridigm):
+//! its neighbours' halves of its bonds still act on it. At set-up, with every bond intact,
+//! such a node is an error that names it.
+
+use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
+use crate::body::Body;
+use crate::bonds::{Bonds, Quadrature};
+use crate::math::{determinant, inverse, Vector};
+use crate::per_node::PerNode;
+use nalgebra::SMatrix;
+
+/// Zero-energy-mode control.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ZeroEnergyControl {
+    /// None: the bare correspondence model (has zero-energy modes).
+    None,
+    /// Wan et al. 2019 (seed 004, Eqs. 12–15): T^S = G ω C1 z, z = Y − Fξ, C1 = C : K⁻¹ with
+    /// (C1)_ab = Σ_cd C_abcd (K⁻¹)_cd; G = 1 is the paper's form.
+    Wan { coefficient: f64 },
+    /// Silling 2017 (Peridigm's "hourglass coefficient" G): a bond force
+    /// G c (z·M)/|ξ| M along the deformed bond, c = the bond-based micromodulus of the
+    /// material's bulk modulus (18K/(πδ⁴) in 3D).
+    Silling { coefficient: f64 },
+}
+
+/// Ratio det K / (tr K / D)^D below which a shape tensor counts as singular.
+const SINGULAR: f64 = 1e-8;
+
+/// Point state: during the pre-pass the sums K and Σ ω Y⊗ξ w; after it, A = P K⁻¹, F and the
+/// stabilisation tensor C1 (zero for a detached node).
+#[derive(Debug, Clone, Copy)]
+pub struct CorrespondencePoint<const D: usize> {
+    pub a: SMatrix<f64, D, D>,
+    pub f: SMatrix<f64, D, D>,
+    pub c1: SMatrix<f64, D, D>,
+    pub detached: bool,
+}
+
+impl<const D: usize> Default for CorrespondencePoint<D> {
+    fn default() -> Self {
+        CorrespondencePoint {
+            a: SMatrix::zeros(),
+            f: SMatrix::zeros(),
+            c1: SMatrix::zeros(),
+            detached: false,
+        }
+    }
+}
+
+/// Correspondence material.
+#[derive(Debug, Clone)]
+pub struct Correspondence {
+    pub elasticity: Elasticity,
+    pub influence: Influence,
+    pub control: ZeroEnergyControl,
+    /// Reference horizon (m).
+    pub horizon: f64,
+    /// Horizon per node (m).
+    pub horizons: PerNode,
+    pub rho: f64,
+    thickness: f64,
+    /// Lamé constants of the plane condition: σ = λ tr(E) I + 2μ E.
+    lambda: f64,
+    mu: f64,
+}
+
+impl Correspondence {
+    pub fn new(
+        elasticity: Elasticity,
+        influence: Influence,
+        control: ZeroEnergyControl,
+        horizon: f64,
+        rho: f64,
+        thickness: f64,
+    ) -> Self {
+        let dim = elasticity.dimensionality.dim() as f64;
+        let mu = elasticity.shear();
+        Correspondence {
+            elasticity,
+            influence,
+            control,
+            horizon,
+            horizons: PerNode::Uniform(horizon),
+            rho,
+            thickness: if elasticity.dimensionality == Dimensionality::ThreeD {
+                1.0
+            } else {
+                thickness
+            },
+            // κ − 2μ/D is λ in 3D and plane strain, Eν/(1 − ν²) in plane stress.
+            lambda: elasticity.in_plane_bulk() - 2.0 * mu / dim,
+            mu,
+        }
+    }
+
+    /// The same material with a horizon per node.
+    pub fn with_horizons(mut self, horizons: &[f64]) -> Self {
+        self.horizons = PerNode::from_values(horizons.to_vec());
+        self
+    }
+
+    #[inline(always)]
+    fn omega(&self, i: usize, ref_len: f64) -> f64 {
+        self.influence.omega(ref_len, self.horizons.at(i))
+    }
+
+    /// Bond-based micromodulus of the in-plane bulk modulus κ at node i's horizon, per unit
+    /// volume²: 18κ/(πδ⁴) in 3D, 12κ/(πδ³ t) in 2D (seed 001 Eq. 6 written with κ).
+    fn bond_micromodulus(&self, i: usize) -> f64 {
+        let (k, d) = (self.elasticity.in_plane_bulk(), self.horizons.at(i));
+        match self.elasticity.dimensionality {
+            Dimensionality::ThreeD => 18.0 * k / (std::f64::consts::PI * d.powi(4)),
+            _ => 12.0 * k / (std::f64::consts::PI * d.powi(3) * self.thickness),
+        }
+    }
+
+    /// σ = λ tr(E) I + 2μ E (Eq. 10).
+    fn stress<const D: usize>(&self, e: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+        SMatrix::<f64, D, D>::identity() * (self.lambda * e.trace()) + e * (2.0 * self.mu)
+    }
+
+    /// Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11).
+    fn strain<const D: usize>(f: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+        (f.transpose() * f - SMatrix::<f64, D, D>::identity()) * 0.5
+    }
+
+    /// Whether a shape tensor is too close to singular to invert.
+    fn singular<const D: usize>(k: &SMatrix<f64, D, D>) -> bool {
+        let scale = (k.trace() / D as f64).powi(D as i32);
+        !(scale > 0.0 && determinant(k) > SINGULAR * scale)
+    }
+
+    /// Node i's force state on a bond seen from i (ξ, Y), times ω (the weights φ μ are
+    /// applied by the caller): ω (A ξ + G C1 z) for Wan's control, ω A ξ + G c (z·M)/|ξ| M for
+    /// Silling's, z = Y − F ξ.
+    #[inline(always)]
+    fn half<const D: usize>(
+        &self,
+        i: usize,
+        p: &CorrespondencePoint<D>,
+        xi: &Vector<D>,
+        y: &Vector<D>,
+        ref_len: f64,
+        len: f64,
+    ) -> Vector<D> {
+        if p.detached {
+            return Vector::zeros();
+        }
+        let omega = self.omega(i, ref_len);
+        match self.control {
+            ZeroEnergyControl::None => (p.a * xi) * omega,
+            ZeroEnergyControl::Wan { .. } => (p.a * xi + p.c1 * (y - p.f * xi)) * omega,
+            ZeroEnergyControl::Silling { coefficient } => {
+                let z = y - p.f * xi;
+                let m = y / len;
+                (p.a * xi) * omega
+                    + m * (coefficient * self.bond_micromodulus(i) * z.dot(&m) / ref_len)
+            }
+        }
+    }
+
+    /// The set-up check: with every bond intact, the shape tensor of each node that
+    /// satisfies `member` must be invertible; the first that is not is named.
+    pub fn check_shape_tensors<const D: usize>(
+        &self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        quad: &Quadrature,
+        member: impl Fn(usize) -> bool,
+    ) -> Result<(), PointError> {
+        for i in (0..body.len()).filter(|&i| member(i)) {
+            let mut k = SMatrix::<f64, D, D>::zeros();
+            for b in bonds.family(i) {
+                let j = bonds.neighbors[b] as usize;
+                let l = bonds.ref_lengths[b];
+                let xi = body.positions[j] - body.positions[i];
+                k += xi
+                    * xi.transpose()
+                    * (self.omega(i, l) * quad.phi_pair(b, i, j, l).0 * body.volumes[j]);
+            }
+            if Self::singular(&k) {
+                return Err(PointError {
+                    node: i,
+                    position: body.positions[i].iter().cloned().collect(),
+                    reason: format!(
+                        "its shape tensor K is singular with {} bonds (the correspondence model needs bonds in {D} independent directions); raise the horizon ratio δ/Δx or check the discretization around this node",
+                        bonds.family(i).len()
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<const D: usize> Material<D> for Correspondence {
+    type Point = CorrespondencePoint<D>;
+    const NEEDS_PREPASS: bool = true;
+    const CENTRAL: bool = false;
+    const NEEDS_XI: bool = true;
+
+    /// Checks every shape tensor with all bonds intact.
+    fn setup(
+        &mut self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        quad: &Quadrature,
+    ) -> Result<(), PointError> {
+        self.check_shape_tensors(body, bonds, quad, |_| true)
+    }
+
+    /// K += ω ξ⊗ξ w and N += ω Y⊗ξ w, kept in `a` and `f` until `finish_point`.
+    #[inline(always)]
+    fn accumulate(&self, i: usize, acc: &mut Self::Point, b: &BondGeom<D>) {
+        let w = self.omega(i, b.ref_len) * b.weight();
+        let xt = b.xi.transpose();
+        acc.a += (b.xi * w) * xt;
+        acc.f += (b.y * w) * xt;
+    }
+
+    fn finish_point(&self, i: usize, acc: Self::Point) -> Self::Point {
+        let (k, n) = (acc.a, acc.f);
+        let detached = CorrespondencePoint {
+            detached: true,
+            f: SMatrix::identity(),
+            ..Default::default()
+        };
+        if Self::singular(&k) {
+            return detached;
+        }
+        let Some(k_inv) = inverse(&k) else {
+            return detached;
+        };
+        let f = n * k_inv;
+        let j = determinant(&f);
+        let Some(f_inv) = inverse(&f) else {
+            return detached;
+        };
+        let sigma = self.stress(&Self::strain(&f));
+        let p = sigma * f_inv.transpose() * j;
+        let c1 = match self.control {
+            ZeroEnergyControl::Wan { coefficient } => {
+                (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
+                    + k_inv * (2.0 * self.mu))
+                    * coefficient
+            }
+            _ => SMatrix::zeros(),
+        };
+        let _ = i;
+        CorrespondencePoint {
+            a: p * k_inv,
+            f,
+            c1,
+            detached: false,
+        }
+    }
+
+    fn force_state(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
+        Material::<D>::force_state_vector(self, i, b, p).dot(&b.y) / b.len
+    }
+
+    #[inline(always)]
+    fn force_state_vector(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> Vector<D> {
+        self.half(i, p, &b.xi, &b.y, b.ref_len, b.len)
+    }
+
+    /// T_i⟨ξ⟩ φ_ij μ_ij − T_j⟨−ξ⟩ φ_ji μ_ji, each half evaluated from its own node's side, so
+    /// that the value from j's side is the exact negation.
+    #[inline(always)]
+    fn pair_force(
+        &self,
+        i: usize,
+        j: usize,
+        b: &BondGeom<D>,
+        pi: &Self::Point,
+        pj: &Self::Point,
+    ) -> Vector<D> {
+        let (nxi, ny) = (-b.xi, -b.y);
+        self.half(i, pi, &b.xi, &b.y, b.ref_len, b.len) * (b.phi_ij * b.mu_ij)
+            - self.half(j, pj, &nxi, &ny, b.ref_len, b.len) * (b.phi_ji * b.mu_ji)
+    }
+
+    /// The stabilisation energy of the bond: ½ G ω z·C1 z w (Wan; its gradient is exactly
+    /// T^S because Σ ω z⊗ξ w = 0 by the definition of F), ½ G c (z·M)²/|ξ| w (Silling's, an
+    /// approximation: that force has no exact potential).
+    fn bond_energy(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
+        if p.detached {
+            return 0.0;
+        }
+        let z = b.y - p.f * b.xi;
+        match self.control {
+            ZeroEnergyControl::None => 0.0,
+            ZeroEnergyControl::Wan { .. } => {
+                0.5 * self.omega(i, b.ref_len) * z.dot(&(p.c1 * z)) * b.weight()
+            }
+            ZeroEnergyControl::Silling { coefficient } => {
+                let zm = z.dot(&b.y) / b.len;
+                0.5 * coefficient * self.bond_micromodulus(i) * zm * zm / b.ref_len * b.weight()
+            }
+        }
+    }
+
+    /// W = ½ σ:E of the node's F, plus the stabilisation energy of its bonds.
+    fn point_energy(&self, _i: usize, p: &Self::Point, bond_sum: f64) -> f64 {
+        if p.detached {
+            return 0.0;
+        }
+        let e = Self::strain(&p.f);
+        0.5 * self.stress(&e).dot(&e) + bond_sum
+    }
+
+    /// The bond-based equivalent of the P-wave modulus, as for LPS.
+    fn bond_stiffness(&self, i: usize, ref_len: f64) -> f64 {
+        super::calibration::equivalent_bond_stiffness(
+            &self.elasticity,
+            self.horizons.at(i),
+            self.thickness,
+            ref_len,
+        )
+    }
+
+    fn density(&self, _i: usize) -> f64 {
+        self.rho
+    }
+
+    fn elasticity(&self) -> Elasticity {
+        self.elasticity
+    }
+}
