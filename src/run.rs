@@ -130,6 +130,9 @@ impl std::fmt::Display for ModelReport {
                 write!(f, ", {n} bonds broken before loading (porosity)")?;
             }
             writeln!(f)?;
+            if let Some(note) = &m.note {
+                writeln!(f, "                 note: {note}")?;
+            }
         }
         writeln!(
             f,

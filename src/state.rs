@@ -33,6 +33,9 @@ pub struct State<const D: usize> {
     pub status: Vec<u8>,
     /// Per directed bond entry: the damage law's history words (empty when it keeps none).
     pub history: Vec<f64>,
+    /// Current positions at the previous force evaluation, kept only for damage laws that
+    /// integrate the work done on bonds (empty otherwise).
+    pub previous: Vec<Vector<D>>,
     /// Number of broken directed bond halves (a bond whose ends share a law counts twice).
     pub broken: u64,
     /// Work done by boundary conditions and loads since the start (J).
@@ -55,6 +58,7 @@ impl<const D: usize> State<D> {
             body_force: vec![Vector::zeros(); n],
             status: vec![INTACT; bonds.len()],
             history: vec![0.0; bonds.len() * history_words],
+            previous: Vec::new(),
             broken: 0,
             external_work: 0.0,
             dissipated_viscous: 0.0,

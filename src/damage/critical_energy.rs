@@ -2,11 +2,17 @@
 //! Eqs. 16–18): a bond breaks once the work done on it,
 //! w = ∫ (T[x]⟨ξ⟩ − T[x']⟨−ξ⟩)·dη (seed 002, Eq. 6), reaches the critical bond energy w_c.
 //!
-//! The work is accumulated along the actual deformation path with the trapezoidal rule in
-//! the extension: for an ordinary state the pair force is f M and M·dη = de, so
-//! dw = f de exactly; for correspondence f is the pair force's component along the deformed
-//! bond (as seed 004's projection T^P, taken on the bond direction so that an ordinary state
-//! gives exactly Eq. 6). History per bond: w, f and e of the previous evaluation (24 bytes).
+//! The work is accumulated along the actual deformation path, from one force evaluation to
+//! the next, with the trapezoidal rule: w += ½ (F_prev + F)·Δη, for any force state
+//! (ordinary or not: seed 004's projected T^P of Eqs. 16–17 is this work for a proportional
+//! path; the integral is exact along any path, so the energy a body takes to break equals the
+//! energy its bonds dissipate). The engine keeps the previous positions per node for Δη;
+//! history per bond: w and the previous pair force (32 bytes).
+//!
+//! The force is taken per unit quadrature weight (the engine divides the pair force by the
+//! bond's partial-volume fraction φ̄ = ½(φ_ij + φ_ji)): w is then the work density of the
+//! continuum bond, and a bond cut by the horizon boundary dissipates w_c φ̄ V_i V_j, its share
+//! of the integral that defines w_c.
 
 use super::DamageLaw;
 use super::PerNode;
@@ -34,22 +40,24 @@ impl CriticalEnergy {
     }
 }
 
-/// The work record [w, f, e] of a bond: w += ½ (f_prev + f)(e − e_prev). The first
-/// evaluation starts from the unloaded bond (f = e = 0).
+/// The work record [w, F_x, F_y, F_z] of a bond: w += ½ (F_prev + F)·Δη, then F_prev = F.
+/// The first evaluation starts from the unloaded bond (F_prev = 0).
 #[inline(always)]
-pub fn accumulate_work(force: f64, extension: f64, h: &mut [f64]) {
-    h[0] += 0.5 * (h[1] + force) * (extension - h[2]);
-    h[1] = force;
-    h[2] = extension;
+pub fn accumulate_work(force: [f64; 3], step: [f64; 3], h: &mut [f64]) {
+    h[0] += 0.5
+        * ((h[1] + force[0]) * step[0] + (h[2] + force[1]) * step[1] + (h[3] + force[2]) * step[2]);
+    h[1] = force[0];
+    h[2] = force[1];
+    h[3] = force[2];
 }
 
 impl DamageLaw for CriticalEnergy {
-    const HISTORY: usize = 3;
+    const HISTORY: usize = 4;
     const ON_WORK: bool = true;
 
     #[inline(always)]
-    fn record_work(&self, force: f64, extension: f64, h: &mut [f64]) {
-        accumulate_work(force, extension, h);
+    fn record_work(&self, force: [f64; 3], step: [f64; 3], h: &mut [f64]) {
+        accumulate_work(force, step, h);
     }
 
     #[inline(always)]
@@ -77,17 +85,22 @@ mod tests {
             wc: PerNode::Uniform(f64::INFINITY),
             tension_only: false,
         };
-        let mut h = [0.0; 3];
+        let mut h = [0.0; 4];
+        let step = [0.6e-6, 0.8e-6, 0.0];
         for k in 1..=10 {
             let e = 1e-6 * k as f64;
-            law.record_work(3e12 * e, e, &mut h);
+            law.record_work([3e12 * e * 0.6, 3e12 * e * 0.8, 0.0], step, &mut h);
         }
         // Exact for a linear force: ½ k e².
         assert!((h[0] / (0.5 * 3e12 * 1e-10) - 1.0).abs() < 1e-12);
         // Unloading returns the work.
         for k in (0..10).rev() {
             let e = 1e-6 * k as f64;
-            law.record_work(3e12 * e, e, &mut h);
+            law.record_work(
+                [3e12 * e * 0.6, 3e12 * e * 0.8, 0.0],
+                [-0.6e-6, -0.8e-6, 0.0],
+                &mut h,
+            );
         }
         assert!(h[0].abs() < 1e-12 * 0.5 * 3e12 * 1e-10);
     }

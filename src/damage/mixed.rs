@@ -1,6 +1,6 @@
 //! Different damage laws in different blocks. Each half of a bond follows the law of the node
 //! that owns it, so a bond between two blocks fails half by half (see `docs/models.md`,
-//! "Bonds between blocks"). The history holds every law's record: [s_max | w, f, e].
+//! "Bonds between blocks"). The history holds every law's record: [s_max | w, F].
 
 use super::{CriticalEnergy, CriticalStretch, DamageLaw, Softening, Stretch};
 
@@ -29,10 +29,10 @@ impl MixedDamage {
 
 /// Where each law keeps its record in the mixed history.
 const STRETCH: std::ops::Range<usize> = 0..1;
-const WORK: std::ops::Range<usize> = 1..4;
+const WORK: std::ops::Range<usize> = 1..5;
 
 impl DamageLaw for MixedDamage {
-    const HISTORY: usize = 4;
+    const HISTORY: usize = 5;
     const ON_STRETCH: bool = true;
     const ON_WORK: bool = true;
     const PARTIAL: bool = true;
@@ -52,8 +52,8 @@ impl DamageLaw for MixedDamage {
     }
 
     #[inline(always)]
-    fn record_work(&self, force: f64, extension: f64, h: &mut [f64]) {
-        super::critical_energy::accumulate_work(force, extension, &mut h[WORK]);
+    fn record_work(&self, force: [f64; 3], step: [f64; 3], h: &mut [f64]) {
+        super::critical_energy::accumulate_work(force, step, &mut h[WORK]);
     }
 
     #[inline(always)]

@@ -84,10 +84,11 @@ pub trait DamageLaw: Sync + Send {
         false
     }
 
-    /// Records the work of the pair force: `force` is the pair force density along the
-    /// deformed bond (N/m⁶, conjugate to the extension), `extension` = |ξ+η| − |ξ|.
+    /// Records the work of the pair force over the last step: `force` is the pair force
+    /// density per unit quadrature weight (N/m⁶, padded to 3 components), `step` the change of
+    /// the relative displacement η since the previous evaluation (m).
     #[inline(always)]
-    fn record_work(&self, _force: f64, _extension: f64, _history: &mut [f64]) {}
+    fn record_work(&self, _force: [f64; 3], _step: [f64; 3], _history: &mut [f64]) {}
 
     /// Whether the half owned by `node` fails after `record_work`.
     #[inline(always)]
@@ -131,21 +132,22 @@ pub trait DamageLaw: Sync + Send {
         )
     }
 
-    /// Force sweep: records the work and breaks the halves that fail. Returns 1 if node i's
-    /// own half broke now.
+    /// Force sweep: records the work and breaks the halves that fail (`extension` =
+    /// |ξ+η| − |ξ|). Returns 1 if node i's own half broke now.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn on_work(
         &self,
         i: usize,
         j: usize,
-        force: f64,
+        force: [f64; 3],
+        step: [f64; 3],
         extension: f64,
         protected: bool,
         history: &mut [f64],
         status: &mut u8,
     ) -> u64 {
-        self.record_work(force, extension, history);
+        self.record_work(force, step, history);
         if protected {
             return 0;
         }
@@ -190,6 +192,15 @@ impl Damage {
             Damage::CriticalEnergy(_) => CriticalEnergy::HISTORY,
             Damage::Softening(_) => Softening::HISTORY,
             Damage::Mixed(_) => MixedDamage::HISTORY,
+        }
+    }
+
+    /// Whether the law integrates the work done on bonds (the engine then keeps the positions
+    /// of the previous evaluation).
+    pub fn records_work(&self) -> bool {
+        match self {
+            Damage::CriticalStretch(_) | Damage::Softening(_) => false,
+            Damage::CriticalEnergy(_) | Damage::Mixed(_) => true,
         }
     }
 

@@ -93,6 +93,9 @@ pub struct MaterialReport {
     /// Bonds broken before loading (IH-PD porosity).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub prebroken_bonds: Option<usize>,
+    /// What the user should know about this calibration.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 /// Solver settings of an explicit run.
@@ -421,6 +424,7 @@ struct Calibrated {
 
 /// Calibrates the material table `spec` (at deck key `key`) for a horizon δ.
 fn calibrate(
+    version: u32,
     spec: &MaterialDeck,
     key: &str,
     dim: Dimensionality,
@@ -507,9 +511,12 @@ fn calibrate(
     report.poisson_ratio = elasticity.poisson_ratio;
     // The critical stretch a fracture energy gives this model (bond-based: exact, seed 001
     // Eq. 8; state-based: the bulk-equivalent approximation).
-    let s0_from = |g: f64| match pmb_c0 {
-        Some(c) => Pmb::critical_stretch_from_g0(g, c, dim, profile, horizon),
-        None => Lps::critical_stretch_from_g0(g, &elasticity, horizon),
+    let s0_from = |g: f64| match (&material, pmb_c0) {
+        (_, Some(c)) => Pmb::critical_stretch_from_g0(g, c, dim, profile, horizon),
+        (BlockMaterial::Lps(m), _) if version >= 2 => m.critical_stretch_from_g0(g),
+        (BlockMaterial::Lps(m), _) => m.bulk_equivalent_critical_stretch(g),
+        // Refused by validation: no G0 calibration of the critical stretch.
+        _ => f64::INFINITY,
     };
     let path = format!("{key}.damage");
     let damage = spec.damage();
@@ -582,7 +589,19 @@ fn calibrate(
         _ => "critical stretch".into(),
     };
     match law {
-        LawAt::CriticalStretch(s) if s.is_finite() => report.critical_stretch = Some(s),
+        LawAt::CriticalStretch(s) if s.is_finite() => {
+            report.critical_stretch = Some(s);
+            if let (BlockMaterial::Lps(m), Some(g), None, DamageDeck::CriticalStretch {}) =
+                (&material, g0, spec.critical_stretch(), &damage)
+            {
+                if version < 2 {
+                    report.note = Some(format!(
+                        "version-1 deck: s0 is the bond-based equivalent (approximate); with version = 2 it is calibrated to G0 exactly, s0 = {:.5e}",
+                        m.critical_stretch_from_g0(g)
+                    ));
+                }
+            }
+        }
         LawAt::CriticalEnergy(w) if w.is_finite() => report.critical_energy = Some(w),
         LawAt::Softening(p) => {
             report.peak_stretch = Some(p.s1);
@@ -643,7 +662,7 @@ pub fn build_constitution<const D: usize>(
         used.dedup();
         let mut at: Vec<Option<Calibrated>> = (0..distinct.len()).map(|_| None).collect();
         for &c in &used {
-            match calibrate(spec, key, dim, thickness, distinct[c]) {
+            match calibrate(deck.version, spec, key, dim, thickness, distinct[c]) {
                 Ok(cal) => at[c] = Some(cal),
                 Err(issue) => issues.push(issue),
             }

@@ -8,11 +8,15 @@ use crate::material::{Influence, MicromodulusProfile};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// The newest deck version this peridyn reads.
+pub const LATEST_VERSION: u32 = 2;
+
 /// A whole deck.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Deck {
-    /// Deck format version; must be 1.
+    /// Deck format version: 1 or 2 (`LATEST_VERSION`). Version 2 calibrates the LPS critical
+    /// stretch to G0 exactly; version 1 keeps the bond-based equivalent it always had.
     pub version: u32,
     #[serde(default)]
     pub title: String,

@@ -29,11 +29,11 @@ fn positive(issues: &mut Vec<DeckIssue>, path: &str, value: f64, what: &str) {
 pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     let mut out = Vec::new();
     let d = deck.dimension;
-    if deck.version != 1 {
+    if !(1..=LATEST_VERSION).contains(&deck.version) {
         out.push(DeckIssue::new(
             "version",
             format!(
-                "unsupported deck version {}; this peridyn reads version = 1",
+                "unsupported deck version {}; this peridyn reads versions 1 to {LATEST_VERSION}",
                 deck.version
             ),
         ));
@@ -440,6 +440,12 @@ fn validate_material(
                 out.push(DeckIssue::new(
                     &at("critical_stretch"),
                     "give `fracture_energy` or `critical_stretch`, not both",
+                ));
+            }
+            if g0.is_some() && matches!(m, MaterialDeck::Correspondence { .. }) {
+                out.push(DeckIssue::new(
+                    &at("fracture_energy"),
+                    "the critical stretch of the correspondence model has no calibration from G0; use `damage = { type = \"critical_energy\" }` (seed 004), or give `critical_stretch` instead",
                 ));
             }
         }

@@ -11,6 +11,7 @@ pub mod calibration;
 pub mod correspondence;
 pub mod influence;
 pub mod lps;
+pub mod lps_separation;
 pub mod mixed;
 pub mod pmb;
 pub mod simd;

@@ -13,7 +13,7 @@ use crate::damage::critical_stretch::UniformCriticalStretch;
 use crate::damage::{Damage, DamageLaw, PerNode, Stretch, BROKEN, INTACT, OWN_BROKEN};
 use crate::material::simd::{self, NodeBonds};
 use crate::material::{BondGeom, Material, PointError};
-use crate::math::Vector;
+use crate::math::{to3, Vector};
 use crate::state::State;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -336,6 +336,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let history_chunks = split_at_ends(&mut state.history, bond_ends().map(|e| e * hw));
         let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
         let (material, points) = (&self.material, &self.points);
+        let previous = &state.previous;
         let sweep = Sweep {
             current: &state.current,
             positions: &body.positions,
@@ -386,14 +387,20 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             f += pair_force(material, i, j, &geom, pi, pj);
                             return 0;
                         }
-                        // Energy-based failure needs the pair force first: record its work,
+                        // Energy-based failure needs the pair force first: record its work per
+                        // unit quadrature weight φ̄ (so a bond cut by the horizon boundary
+                        // dissipates its share w_c φ̄ V_i V_j) since the previous evaluation,
                         // then drop the halves that broke.
-                        let (force, along) = pair_force_and_axial(material, i, j, &geom, pi, pj);
+                        let force = pair_force_density(material, i, j, &geom, pi, pj);
+                        let weight = 0.5 * (geom.phi_ij + geom.phi_ji);
+                        let per_weight = if weight > 0.0 { 1.0 / weight } else { 0.0 };
+                        let step = geom.y - (previous[j] - previous[i]);
                         let before = *status;
                         let broke = damage.on_work(
                             i,
                             j,
-                            along,
+                            to3(&(force * per_weight)),
+                            to3(&step),
                             geom.len - geom.ref_len,
                             protected,
                             history,
@@ -406,7 +413,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             (geom.mu_ij, geom.mu_ji) = damage.factors(i, j, history, *status);
                             f += pair_force(material, i, j, &geom, pi, pj);
                         } else {
-                            f += force;
+                            f += force * geom.vol_j;
                         }
                         broke
                     });
@@ -416,6 +423,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             })
             .sum::<u64>();
 
+        if Dm::ON_WORK {
+            state.previous.clone_from(&state.current);
+        }
         state.broken += newly_broken;
         newly_broken
     }
@@ -575,23 +585,19 @@ fn pair_force<const D: usize, M: Material<D>>(
     }
 }
 
-/// The pair force (times V_j) and its component along the deformed bond (without V_j), the
-/// force conjugate to the extension that energy-based failure integrates.
+/// The pair force density vector of bond i→j (N/m⁶, before the V_j of the neighbour).
 #[inline(always)]
-fn pair_force_and_axial<const D: usize, M: Material<D>>(
+fn pair_force_density<const D: usize, M: Material<D>>(
     material: &M,
     i: usize,
     j: usize,
     g: &BondGeom<D>,
     pi: &M::Point,
     pj: &M::Point,
-) -> (Vector<D>, f64) {
+) -> Vector<D> {
     if M::CENTRAL {
-        let per_length = material.pair_force_per_length(i, j, g, pi, pj);
-        (g.y * (per_length * g.vol_j), per_length * g.len)
+        g.y * material.pair_force_per_length(i, j, g, pi, pj)
     } else {
-        let f = material.pair_force(i, j, g, pi, pj);
-        let along = f.dot(&g.y) / g.len;
-        (f * g.vol_j, along)
+        material.pair_force(i, j, g, pi, pj)
     }
 }

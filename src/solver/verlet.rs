@@ -66,6 +66,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
     ) -> Result<Self, StepError> {
         let damage = damage.into();
         let history_words = damage.history_words();
+        let damage_records_work = damage.records_work();
         let engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
         let dt_stable = engine.stable_time_step(&body, &bonds);
         let densities = (0..body.len())
@@ -76,7 +77,10 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .flat_map(|i| (0..D).map(move |k| (i, k)))
             .filter(|&(i, k)| mask[i][k])
             .collect();
-        let state = State::new(&body, &bonds, history_words);
+        let mut state = State::new(&body, &bonds, history_words);
+        if damage_records_work {
+            state.previous = state.current.clone();
+        }
         let mut sim = Simulation {
             body,
             bonds,
