@@ -7,7 +7,7 @@ use peridyn::body::Body;
 use peridyn::bonds::search::build_bonds;
 use peridyn::bonds::{PartialVolume, Precrack};
 use peridyn::damage::CriticalStretch;
-use peridyn::deck::schema::{Discretization, SolverDeck};
+use peridyn::deck::schema::{BlockDeck, Discretization, MaterialDeck, SolverDeck};
 use peridyn::deck::LoadedDeck;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
@@ -62,18 +62,18 @@ fn small_quickstart() -> LoadedDeck {
     ld
 }
 
-#[test]
-fn quickstart_2d_pmb_is_bitwise_identical_with_1_and_2_threads() {
-    let ld = small_quickstart();
+/// Runs a deck with 1 and 2 threads and asserts byte-identical outputs; returns the bonds
+/// broken.
+fn assert_deterministic(ld: &LoadedDeck, label: &str) -> u64 {
     let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("determinism-{}", std::process::id()));
+        .join(format!("determinism-{label}-{}", std::process::id()));
     let mut results = Vec::new();
     for threads in [1usize, 2] {
         let out_dir = base.join(format!("threads{threads}"));
         let _ = std::fs::remove_dir_all(&out_dir);
         let started = Instant::now();
         let summary = run(
-            &ld,
+            ld,
             &RunOptions {
                 out_dir: out_dir.clone(),
                 threads: Some(threads),
@@ -82,7 +82,7 @@ fn quickstart_2d_pmb_is_bitwise_identical_with_1_and_2_threads() {
         )
         .unwrap();
         println!(
-            "quickstart (coarsened) with {threads} thread(s): {} nodes, {} steps, {} broken bonds, KE {:.6e} J, SE {:.6e} J, {:.1} s",
+            "{label} with {threads} thread(s): {} nodes, {} steps, {} broken bonds, KE {:.6e} J, SE {:.6e} J, {:.1} s",
             summary.report.nodes,
             summary.report.steps,
             summary.broken_bonds,
@@ -92,14 +92,22 @@ fn quickstart_2d_pmb_is_bitwise_identical_with_1_and_2_threads() {
         );
         assert!(
             summary.broken_bonds > 0,
-            "the shortened quickstart must fracture (no broken bonds with {threads} threads)"
+            "{label}: the run must fracture (no broken bonds with {threads} threads)"
         );
         results.push((summary, files(&out_dir)));
     }
     let (a, b) = (&results[0], &results[1]);
-    assert_eq!(a.0.broken_bonds, b.0.broken_bonds);
-    assert_eq!(a.0.kinetic_energy.to_bits(), b.0.kinetic_energy.to_bits());
-    assert_eq!(a.0.strain_energy.to_bits(), b.0.strain_energy.to_bits());
+    assert_eq!(a.0.broken_bonds, b.0.broken_bonds, "{label}");
+    assert_eq!(
+        a.0.kinetic_energy.to_bits(),
+        b.0.kinetic_energy.to_bits(),
+        "{label}"
+    );
+    assert_eq!(
+        a.0.strain_energy.to_bits(),
+        b.0.strain_energy.to_bits(),
+        "{label}"
+    );
 
     let vtus: Vec<&PathBuf> =
         a.1.keys()
@@ -119,17 +127,93 @@ fn quickstart_2d_pmb_is_bitwise_identical_with_1_and_2_threads() {
         }
         let other =
             b.1.get(path)
-                .unwrap_or_else(|| panic!("{name} written with 1 thread but not with 2"));
-        assert!(bytes == other, "{name} differs between 1 and 2 threads");
+                .unwrap_or_else(|| panic!("{label}: {name} written with 1 thread but not with 2"));
+        assert!(
+            bytes == other,
+            "{label}: {name} differs between 1 and 2 threads"
+        );
         compared += 1;
     }
-    assert_eq!(a.1.len(), b.1.len(), "different sets of output files");
+    assert_eq!(
+        a.1.len(),
+        b.1.len(),
+        "{label}: different sets of output files"
+    );
     assert!(a.1.keys().any(|p| p.ends_with("history.csv")));
     println!(
-        "compared {compared} files byte for byte ({} VTU snapshots + history.csv + others)",
+        "{label}: compared {compared} files byte for byte ({} VTU snapshots + history.csv + others)",
         vtus.len()
     );
     let _ = std::fs::remove_dir_all(&base);
+    a.0.broken_bonds
+}
+
+#[test]
+fn quickstart_2d_pmb_is_bitwise_identical_with_1_and_2_threads() {
+    assert_deterministic(&small_quickstart(), "quickstart");
+}
+
+/// A material table of the small quickstart's plate (PMMA), of another model or damage law.
+fn pmma(text: &str) -> MaterialDeck {
+    toml::from_str(&format!(
+        "density = 1180.0\nyoungs_modulus = 3.09e9\n{text}"
+    ))
+    .unwrap()
+}
+
+/// Every model and damage law, fracturing, gives the same bits with 1 and 2 threads.
+#[test]
+fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
+    let cases = [
+        (
+            "lps-critical-energy",
+            "type = \"lps\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ninfluence = \"gaussian\"\ndamage = { type = \"critical_energy\", tension_only = true }",
+        ),
+        (
+            "correspondence-critical-energy",
+            "type = \"correspondence\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ndamage = { type = \"critical_energy\" }",
+        ),
+        (
+            "pmb-bilinear",
+            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"bilinear\", tensile_strength = 60e6 }",
+        ),
+        (
+            "pmb-trilinear-porous",
+            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"trilinear\", tensile_strength = 60e6 }\nporosity = { porosity = 0.01, seed = 3 }",
+        ),
+    ];
+    for (label, text) in cases {
+        let mut ld = small_quickstart();
+        ld.deck.version = 2;
+        ld.deck.material = pmma(text);
+        assert_deterministic(&ld, label);
+    }
+    // Two materials (PMB left, LPS right of x = 16 mm) and a second horizon in the right half
+    // (dual horizon across x = 16 mm).
+    let mut ld = small_quickstart();
+    ld.deck.materials.insert(
+        "lps".into(),
+        pmma("type = \"lps\"\npoisson_ratio = 0.35\nfracture_energy = 300.0"),
+    );
+    let right = peridyn::geometry::Shape::Rectangle {
+        min: [0.016, -1.0],
+        max: [1.0, 1.0],
+    };
+    ld.deck.blocks = vec![BlockDeck {
+        id: 1,
+        region: Some(right.clone()),
+        material: Some("lps".into()),
+        horizon: None,
+    }];
+    assert_deterministic(&ld, "two-materials");
+    let mut ld = small_quickstart();
+    ld.deck.blocks = vec![BlockDeck {
+        id: 1,
+        region: Some(right),
+        material: None,
+        horizon: Some(1.0e-3),
+    }];
+    assert_deterministic(&ld, "dual-horizon");
 }
 
 /// 3D LPS through the API: a pre-cracked bar pulled at both ends until bonds break.
