@@ -1,15 +1,20 @@
-//! Throughput benchmark of the force loop plus integration: PMB and LPS, 2D and 3D, at
-//! δ/Δx = 3, single- and multi-threaded, best of three repetitions. `peridyn bench` prints
-//! the table.
+//! Throughput benchmark of the force loop plus integration for every model and damage law,
+//! 2D and 3D, at δ/Δx = 3, single- and multi-threaded, best of three repetitions.
+//! `peridyn bench` prints the table; `--cases` picks rows.
 
 use crate::body::Body;
 use crate::bonds::{search::build_bonds, Bonds, PartialVolume};
-use crate::damage::CriticalStretch;
+use crate::damage::mixed::BlockLaw;
+use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
+use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
 use crate::discretize::lattice::lattice;
 use crate::geometry::Shape;
 use crate::loading::Loading;
+use crate::material::correspondence::ZeroEnergyControl;
+use crate::material::mixed::BlockMaterial;
 use crate::material::{
-    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+    Correspondence, Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile,
+    Mixed, Pmb,
 };
 use crate::solver::Simulation;
 use std::time::Instant;
@@ -26,23 +31,59 @@ pub struct BenchResult {
     pub bytes_per_bond: f64,
 }
 
-/// A lattice block with about `target_bonds` directed bonds at δ/Δx = 3.
-fn block<const D: usize>(target_bonds: usize, rule: PartialVolume) -> (Body<D>, Bonds, f64) {
-    let dx = 1e-3;
-    let per_node = if D == 3 { 122.0 } else { 28.0 };
+/// The cases, in table order: model, damage law, dimension (and "-nopv": no partial-volume
+/// band, the ~122 bonds per node of δ/Δx = 3 that other codes quote; "-dh": the right half
+/// with a 2δ horizon; "-mixed": PMB left, LPS right).
+pub const CASES: [&str; 17] = [
+    "pmb-2d",
+    "lps-2d",
+    "correspondence-2d",
+    "pmb-bilinear-2d",
+    "pmb-energy-2d",
+    "lps-energy-2d",
+    "pmb-dh-2d",
+    "mixed-2d",
+    "pmb-3d",
+    "lps-3d",
+    "correspondence-3d",
+    "pmb-bilinear-3d",
+    "pmb-energy-3d",
+    "lps-energy-3d",
+    "correspondence-energy-3d",
+    "pmb-3d-nopv",
+    "mixed-3d",
+];
+
+const E: f64 = 70e9;
+const RHO: f64 = 2500.0;
+const DX: f64 = 1e-3;
+const THICKNESS: f64 = 1e-3;
+
+/// A lattice block with about `target_bonds` directed bonds at δ/Δx = 3; with `dual`, the
+/// nodes right of the middle get a horizon twice as large.
+fn block<const D: usize>(target_bonds: usize, rule: PartialVolume, dual: bool) -> (Body<D>, Bonds) {
+    let per_node = if D == 3 { 122.0 } else { 28.0 } * if dual { 2.5 } else { 1.0 };
     let nodes = (target_bonds as f64 / per_node).max(1000.0);
-    let side = nodes.powf(1.0 / D as f64).ceil() * dx;
+    let side = nodes.powf(1.0 / D as f64).ceil() * DX;
     let shape = Shape::cube(D, side);
-    let cloud = lattice(&shape, D, dx, 1e-3).expect("benchmark lattice");
-    let body = Body::<D>::from_cloud(cloud, 3.0 * dx, 1e-3);
+    let cloud = lattice(&shape, D, DX, THICKNESS).expect("benchmark lattice");
+    let mut body = Body::<D>::from_cloud(cloud, 3.0 * DX, THICKNESS);
+    if dual {
+        for i in 0..body.len() {
+            if body.positions[i][0] > 0.5 * side {
+                body.horizons[i] = 6.0 * DX;
+            }
+        }
+    }
     let bonds = build_bonds(&body, rule, &[]);
-    (body, bonds, 3.0 * dx)
+    (body, bonds)
 }
 
 fn measure<const D: usize, M: Material<D>>(
     case: &str,
     (body, bonds, rule): (Body<D>, Bonds, PartialVolume),
     material: M,
+    damage: Damage,
     steps: u64,
     threads: usize,
 ) -> BenchResult {
@@ -51,18 +92,19 @@ fn measure<const D: usize, M: Material<D>>(
         .build()
         .expect("thread pool");
     pool.install(|| {
+        let history = damage.bytes_per_bond();
         let mut sim = Simulation::new(
             body,
             bonds,
             material,
-            CriticalStretch::never(),
+            damage,
             rule,
             Loading::default(),
             None,
             0.8,
         )
         .expect("benchmark model");
-        // A small random-free initial velocity field so the loop does real work.
+        // A small deterministic velocity field so the loop does real work.
         for (i, v) in sim.state.v.iter_mut().enumerate() {
             v[0] = 1e-3 * ((i % 7) as f64 - 3.0);
         }
@@ -87,44 +129,148 @@ fn measure<const D: usize, M: Material<D>>(
             bonds_per_node: nb as f64 / n as f64,
             node_steps_per_second: n as f64 * steps as f64 / secs,
             bond_evaluations_per_second: evals * nb as f64 * steps as f64 / secs,
-            bytes_per_bond: Bonds::BYTES_PER_BOND as f64,
+            bytes_per_bond: (Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history)
+                as f64,
         }
     })
 }
 
-fn pmb<const D: usize>(dim: Dimensionality, horizon: f64) -> Pmb {
+fn dim_of<const D: usize>() -> Dimensionality {
+    if D == 2 {
+        Dimensionality::PlaneStress
+    } else {
+        Dimensionality::ThreeD
+    }
+}
+
+fn pmb<const D: usize>() -> Pmb {
+    let dim = dim_of::<D>();
     Pmb::calibrated(
-        70e9,
-        2500.0,
+        E,
+        RHO,
         dim,
         MicromodulusProfile::Constant,
-        horizon,
-        1e-3,
+        3.0 * DX,
+        THICKNESS,
     )
 }
 
-fn lps(dim: Dimensionality, horizon: f64) -> Lps {
+fn elasticity<const D: usize>() -> Elasticity {
+    Elasticity {
+        youngs_modulus: E,
+        poisson_ratio: 0.3,
+        dimensionality: dim_of::<D>(),
+    }
+}
+
+fn lps<const D: usize>() -> Lps {
     Lps::new(
-        Elasticity {
-            youngs_modulus: 70e9,
-            poisson_ratio: 0.3,
-            dimensionality: dim,
-        },
+        elasticity::<D>(),
         Influence::Constant,
-        horizon,
-        2500.0,
-        1e-3,
+        3.0 * DX,
+        RHO,
+        THICKNESS,
     )
 }
 
-/// Runs every case and prints a table; returns the results.
+fn correspondence<const D: usize>() -> Correspondence {
+    Correspondence::new(
+        elasticity::<D>(),
+        Influence::Constant,
+        ZeroEnergyControl::Wan { coefficient: 1.0 },
+        3.0 * DX,
+        RHO,
+        THICKNESS,
+    )
+}
+
+/// Damage laws with thresholds no bond reaches (the cost of the law, not of fracture).
+fn stretch() -> Damage {
+    CriticalStretch::new(1.0).into()
+}
+fn energy() -> Damage {
+    CriticalEnergy {
+        wc: PerNode::Uniform(f64::MAX),
+        tension_only: false,
+    }
+    .into()
+}
+fn bilinear() -> Damage {
+    Softening::uniform(
+        SofteningShape::Bilinear,
+        SofteningParameters::bilinear(1e-6, 1.0).expect("bench parameters"),
+    )
+    .into()
+}
+
+/// One case in dimension D.
+fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -> BenchResult {
+    let rule = if name.ends_with("nopv") {
+        PartialVolume::None
+    } else {
+        PartialVolume::Hhb
+    };
+    let (body, bonds) = block::<D>(target, rule, name.contains("-dh"));
+    let model = (body, bonds, rule);
+    match name.split('-').next().unwrap_or_default() {
+        "lps" if name.contains("energy") => {
+            measure(name, model, lps::<D>(), energy(), steps, threads)
+        }
+        "lps" => measure(name, model, lps::<D>(), stretch(), steps, threads),
+        "correspondence" if name.contains("energy") => {
+            measure(name, model, correspondence::<D>(), energy(), steps, threads)
+        }
+        "correspondence" => measure(
+            name,
+            model,
+            correspondence::<D>(),
+            stretch(),
+            steps,
+            threads,
+        ),
+        "mixed" => {
+            let side = model.0.positions.iter().map(|p| p[0]).fold(0.0, f64::max);
+            let of: Vec<u16> = (0..model.0.len())
+                .map(|i| (model.0.positions[i][0] > 0.5 * side) as u16)
+                .collect();
+            let mixed = Mixed {
+                materials: vec![
+                    BlockMaterial::Pmb(pmb::<D>()),
+                    BlockMaterial::Lps(lps::<D>()),
+                ],
+                material_of: of.clone(),
+            };
+            let laws = MixedDamage {
+                laws: vec![
+                    BlockLaw::CriticalStretch(CriticalStretch::new(1.0)),
+                    BlockLaw::CriticalStretch(CriticalStretch::new(1.0)),
+                ],
+                law_of: of,
+            };
+            measure(name, model, mixed, laws.into(), steps, threads)
+        }
+        _ => {
+            let horizons = model.0.horizons.clone();
+            let m = pmb::<D>().with_horizons(&horizons);
+            let d = if name.contains("bilinear") {
+                bilinear()
+            } else if name.contains("energy") {
+                energy()
+            } else {
+                stretch()
+            };
+            measure(name, model, m, d, steps, threads)
+        }
+    }
+}
+
+/// Runs the chosen cases (all when `only` is empty) and prints a table; returns the results.
 pub fn run_benchmarks(
     target_bonds: usize,
     steps: u64,
     threads: &[usize],
     only: &[String],
 ) -> Result<Vec<BenchResult>, String> {
-    const CASES: [&str; 5] = ["pmb-2d", "lps-2d", "pmb-3d", "lps-3d", "pmb-3d-nopv"];
     if let Some(bad) = only.iter().find(|c| !CASES.contains(&c.as_str())) {
         return Err(format!(
             "unknown benchmark case {bad:?}; cases: {}",
@@ -145,65 +291,21 @@ pub fn run_benchmarks(
     };
     let mut results = Vec::new();
     println!(
-        "{:<10} {:>7} {:>9} {:>10} {:>16} {:>18} {:>14}",
+        "{:<26} {:>7} {:>9} {:>10} {:>16} {:>18} {:>10}",
         "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond"
     );
     for &t in &threads {
-        for case in CASES
+        for name in CASES
             .into_iter()
             .filter(|c| only.is_empty() || only.iter().any(|o| o == c))
         {
-            // "-nopv": whole volumes inside δ only (no partial-volume band), the ~122 bonds per
-            // node of δ/Δx = 3 that other codes quote.
-            let rule = if case.ends_with("nopv") {
-                PartialVolume::None
+            let r = if name.ends_with("2d") {
+                case::<2>(name, target_bonds, steps, t)
             } else {
-                PartialVolume::Hhb
-            };
-            let r = match case {
-                "pmb-2d" => {
-                    let (b, bo, h) = block::<2>(target_bonds, rule);
-                    measure(
-                        case,
-                        (b, bo, rule),
-                        pmb::<2>(Dimensionality::PlaneStress, h),
-                        steps,
-                        t,
-                    )
-                }
-                "lps-2d" => {
-                    let (b, bo, h) = block::<2>(target_bonds, rule);
-                    measure(
-                        case,
-                        (b, bo, rule),
-                        lps(Dimensionality::PlaneStress, h),
-                        steps,
-                        t,
-                    )
-                }
-                "lps-3d" => {
-                    let (b, bo, h) = block::<3>(target_bonds, rule);
-                    measure(
-                        case,
-                        (b, bo, rule),
-                        lps(Dimensionality::ThreeD, h),
-                        steps,
-                        t,
-                    )
-                }
-                _ => {
-                    let (b, bo, h) = block::<3>(target_bonds, rule);
-                    measure(
-                        case,
-                        (b, bo, rule),
-                        pmb::<3>(Dimensionality::ThreeD, h),
-                        steps,
-                        t,
-                    )
-                }
+                case::<3>(name, target_bonds, steps, t)
             };
             println!(
-                "{:<10} {:>7} {:>9} {:>10.1} {:>16.3e} {:>18.3e} {:>14.0}",
+                "{:<26} {:>7} {:>9} {:>10.1} {:>16.3e} {:>18.3e} {:>10.0}",
                 r.case,
                 r.threads,
                 r.nodes,
