@@ -92,7 +92,7 @@ fn measure<const D: usize, M: Material<D>>(
         .build()
         .expect("thread pool");
     pool.install(|| {
-        let history = damage.bytes_per_bond();
+        let history = damage.bytes_per_bond(M::CENTRAL);
         let mut sim = Simulation::new(
             body,
             bonds,

@@ -289,7 +289,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         material_of,
         ..
     } = model;
-    let history_bytes = damage.bytes_per_bond();
+    let history_bytes = damage.bytes_per_bond(M::CENTRAL);
     let mut sim = Simulation::new(
         body,
         bonds,

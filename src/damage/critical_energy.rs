@@ -3,19 +3,23 @@
 //! w = ∫ (T[x]⟨ξ⟩ − T[x']⟨−ξ⟩)·dη (seed 002, Eq. 6), reaches the critical bond energy w_c.
 //!
 //! The work is accumulated along the actual deformation path, from one force evaluation to
-//! the next, with the trapezoidal rule: w += ½ (F_prev + F)·Δη, for any force state
-//! (ordinary or not: seed 004's projected T^P of Eqs. 16–17 is this work for a proportional
-//! path; the integral is exact along any path, so the energy a body takes to break equals the
-//! energy its bonds dissipate). The engine keeps the previous positions per node for Δη;
-//! history per bond: w and the previous pair force (32 bytes).
+//! the next, with the trapezoidal rule, for any force state (seed 004's projected T^P of
+//! Eqs. 16–17 is this work for a proportional path; the integral is exact along any path, so
+//! the energy a body takes to break equals the energy its bonds dissipate):
+//! - a central force f M (bond-based, LPS): M·dη = de, so w += ½ (f_prev + f)(e − e_prev);
+//!   history per bond: w (f64), and f and e as f32 packed in one word (16 bytes: the loop is
+//!   bound by memory traffic; single precision of the previous values changes w by ~1e-7 of
+//!   itself per step, far below any calibration);
+//! - any force (correspondence): w += ½ (F_prev + F)·Δη, Δη from the positions of the
+//!   previous evaluation, which the engine keeps per node; history: w, F (32 bytes).
 //!
-//! The force is taken per unit quadrature weight (the engine divides the pair force by the
-//! bond's partial-volume fraction φ̄ = ½(φ_ij + φ_ji)): w is then the work density of the
-//! continuum bond, and a bond cut by the horizon boundary dissipates w_c φ̄ V_i V_j, its share
-//! of the integral that defines w_c.
+//! The pair force carries the bond's partial-volume fraction φ̄ = ½(φ_ij + φ_ji), and so does
+//! the threshold: a half fails when w ≥ w_c φ̄, i.e. when the work density of the continuum bond
+//! reaches w_c, and a bond cut by the horizon boundary dissipates w_c φ̄ V_i V_j, its share of
+//! the integral that defines w_c.
 
-use super::DamageLaw;
 use super::PerNode;
+use super::{DamageLaw, Work};
 use crate::material::Dimensionality;
 
 /// Critical bond energy w_c (J/m⁶) per node, optionally only for bonds in tension.
@@ -40,29 +44,113 @@ impl CriticalEnergy {
     }
 }
 
-/// The work record [w, F_x, F_y, F_z] of a bond: w += ½ (F_prev + F)·Δη, then F_prev = F.
-/// The first evaluation starts from the unloaded bond (F_prev = 0).
+/// The work record of a bond, [w, f, e] (central force) or [w, F_x, F_y, F_z]: the
+/// trapezoidal rule from the previous evaluation, which then becomes the new one. The first
+/// evaluation starts from the unloaded bond (f = e = 0, F = 0).
 #[inline(always)]
-pub fn accumulate_work(force: [f64; 3], step: [f64; 3], h: &mut [f64]) {
-    h[0] += 0.5
-        * ((h[1] + force[0]) * step[0] + (h[2] + force[1]) * step[1] + (h[3] + force[2]) * step[2]);
-    h[1] = force[0];
-    h[2] = force[1];
-    h[3] = force[2];
+pub fn accumulate_work(work: Work, h: &mut [f64]) {
+    match work {
+        Work::Along { force, extension } => {
+            let (f_prev, e_prev) = unpack(h[1]);
+            h[0] += 0.5 * (f_prev + force) * (extension - e_prev);
+            h[1] = pack(force, extension);
+        }
+        Work::Vector { force, step } => {
+            h[0] += 0.5
+                * ((h[1] + force[0]) * step[0]
+                    + (h[2] + force[1]) * step[1]
+                    + (h[3] + force[2]) * step[2]);
+            h[1] = force[0];
+            h[2] = force[1];
+            h[3] = force[2];
+        }
+    }
 }
 
-impl DamageLaw for CriticalEnergy {
-    const HISTORY: usize = 4;
+impl CriticalEnergy {
+    /// The one-value form, if every node has the same w_c.
+    pub fn uniform_form(&self) -> Option<UniformCriticalEnergy> {
+        Some(UniformCriticalEnergy {
+            wc: self.wc.uniform()?,
+            tension_only: self.tension_only,
+        })
+    }
+}
+
+/// A critical-energy law with one w_c for every node: both halves break together. The engine
+/// runs this form when it can.
+#[derive(Debug, Clone, Copy)]
+pub struct UniformCriticalEnergy {
+    pub wc: f64,
+    pub tension_only: bool,
+}
+
+impl DamageLaw for UniformCriticalEnergy {
+    const HISTORY: usize = CriticalEnergy::HISTORY;
+    const HISTORY_VECTOR: usize = CriticalEnergy::HISTORY_VECTOR;
     const ON_WORK: bool = true;
+    const HALVES_TOGETHER: bool = true;
 
     #[inline(always)]
-    fn record_work(&self, force: [f64; 3], step: [f64; 3], h: &mut [f64]) {
-        accumulate_work(force, step, h);
+    fn record_work(&self, work: Work, h: &mut [f64]) {
+        accumulate_work(work, h);
     }
 
     #[inline(always)]
-    fn fails_on_work(&self, node: usize, extension: f64, h: &[f64]) -> bool {
-        h[0] >= self.wc.at(node) && !(self.tension_only && extension <= 0.0)
+    fn fails_on_work(&self, _node: usize, extension: f64, weight: f64, h: &[f64]) -> bool {
+        h[0] >= self.wc * weight && !(self.tension_only && extension <= 0.0)
+    }
+
+    #[inline(always)]
+    fn on_work(
+        &self,
+        i: usize,
+        _j: usize,
+        work: Work,
+        extension: f64,
+        weight: f64,
+        protected: bool,
+        history: &mut [f64],
+        status: &mut u8,
+    ) -> u64 {
+        self.record_work(work, history);
+        if !protected && self.fails_on_work(i, extension, weight, history) {
+            *status = super::BROKEN;
+            1
+        } else {
+            0
+        }
+    }
+}
+
+/// Two values rounded to f32, in one f64 word (its bits).
+#[inline(always)]
+fn pack(a: f64, b: f64) -> f64 {
+    f64::from_bits(((a as f32).to_bits() as u64) << 32 | (b as f32).to_bits() as u64)
+}
+
+#[inline(always)]
+fn unpack(word: f64) -> (f64, f64) {
+    let bits = word.to_bits();
+    (
+        f32::from_bits((bits >> 32) as u32) as f64,
+        f32::from_bits(bits as u32) as f64,
+    )
+}
+
+impl DamageLaw for CriticalEnergy {
+    const HISTORY: usize = 2;
+    const HISTORY_VECTOR: usize = 4;
+    const ON_WORK: bool = true;
+
+    #[inline(always)]
+    fn record_work(&self, work: Work, h: &mut [f64]) {
+        accumulate_work(work, h);
+    }
+
+    #[inline(always)]
+    fn fails_on_work(&self, node: usize, extension: f64, weight: f64, h: &[f64]) -> bool {
+        h[0] >= self.wc.at(node) * weight && !(self.tension_only && extension <= 0.0)
     }
 }
 
@@ -85,23 +173,39 @@ mod tests {
             wc: PerNode::Uniform(f64::INFINITY),
             tension_only: false,
         };
-        let mut h = [0.0; 4];
-        let step = [0.6e-6, 0.8e-6, 0.0];
-        for k in 1..=10 {
-            let e = 1e-6 * k as f64;
-            law.record_work([3e12 * e * 0.6, 3e12 * e * 0.8, 0.0], step, &mut h);
-        }
-        // Exact for a linear force: ½ k e².
-        assert!((h[0] / (0.5 * 3e12 * 1e-10) - 1.0).abs() < 1e-12);
-        // Unloading returns the work.
-        for k in (0..10).rev() {
-            let e = 1e-6 * k as f64;
+        // A linear bond along (0.6, 0.8), loaded then unloaded, written both ways.
+        let (mut along, mut vector) = ([0.0; 2], [0.0; 4]);
+        let path: Vec<f64> = (1..=10).chain((0..10).rev()).map(|k| k as f64).collect();
+        let mut previous = 0.0;
+        for (n, &k) in path.iter().enumerate() {
+            let e = 1e-6 * k;
+            let f = 3e12 * e;
             law.record_work(
-                [3e12 * e * 0.6, 3e12 * e * 0.8, 0.0],
-                [-0.6e-6, -0.8e-6, 0.0],
-                &mut h,
+                Work::Along {
+                    force: f,
+                    extension: e,
+                },
+                &mut along,
             );
+            let de = e - previous;
+            previous = e;
+            law.record_work(
+                Work::Vector {
+                    force: [0.6 * f, 0.8 * f, 0.0],
+                    step: [0.6 * de, 0.8 * de, 0.0],
+                },
+                &mut vector,
+            );
+            if n == 9 {
+                // Exact for a linear force: ½ k e² (the packed form to its single precision:
+                // each step rounds f and e to 2⁻²⁴ of themselves).
+                assert!((along[0] / (0.5 * 3e12 * 1e-10) - 1.0).abs() < 10.0 * 2f64.powi(-22));
+                assert!((vector[0] / (0.5 * 3e12 * 1e-10) - 1.0).abs() < 1e-12);
+            }
         }
-        assert!(h[0].abs() < 1e-12 * 0.5 * 3e12 * 1e-10);
+        // Unloading returns the work.
+        let full = 0.5 * 3e12 * 1e-10;
+        assert!(along[0].abs() < 20.0 * 2f64.powi(-22) * full, "{}", along[0] / full);
+        assert!(vector[0].abs() < 1e-12 * full);
     }
 }

@@ -1,8 +1,8 @@
 //! Different damage laws in different blocks. Each half of a bond follows the law of the node
 //! that owns it, so a bond between two blocks fails half by half (see `docs/models.md`,
-//! "Bonds between blocks"). The history holds every law's record: [s_max | w, F].
+//! "Bonds between blocks"). The history holds every law's record: [s_max | work record].
 
-use super::{CriticalEnergy, CriticalStretch, DamageLaw, Softening, Stretch};
+use super::{CriticalEnergy, CriticalStretch, DamageLaw, Softening, Stretch, Work};
 
 /// One block's law.
 #[derive(Debug, Clone)]
@@ -29,10 +29,11 @@ impl MixedDamage {
 
 /// Where each law keeps its record in the mixed history.
 const STRETCH: std::ops::Range<usize> = 0..1;
-const WORK: std::ops::Range<usize> = 1..5;
+const WORK: std::ops::RangeFrom<usize> = 1..;
 
 impl DamageLaw for MixedDamage {
-    const HISTORY: usize = 5;
+    const HISTORY: usize = 1 + CriticalEnergy::HISTORY;
+    const HISTORY_VECTOR: usize = 1 + CriticalEnergy::HISTORY_VECTOR;
     const ON_STRETCH: bool = true;
     const ON_WORK: bool = true;
     const PARTIAL: bool = true;
@@ -52,14 +53,14 @@ impl DamageLaw for MixedDamage {
     }
 
     #[inline(always)]
-    fn record_work(&self, force: [f64; 3], step: [f64; 3], h: &mut [f64]) {
-        super::critical_energy::accumulate_work(force, step, &mut h[WORK]);
+    fn record_work(&self, work: Work, h: &mut [f64]) {
+        super::critical_energy::accumulate_work(work, &mut h[WORK]);
     }
 
     #[inline(always)]
-    fn fails_on_work(&self, node: usize, extension: f64, h: &[f64]) -> bool {
+    fn fails_on_work(&self, node: usize, extension: f64, weight: f64, h: &[f64]) -> bool {
         match self.law(node) {
-            BlockLaw::CriticalEnergy(l) => l.fails_on_work(node, extension, &h[WORK]),
+            BlockLaw::CriticalEnergy(l) => l.fails_on_work(node, extension, weight, &h[WORK]),
             _ => false,
         }
     }

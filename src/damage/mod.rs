@@ -26,6 +26,16 @@ pub use crate::per_node::PerNode;
 
 pub use crate::state::{BROKEN, INTACT, OTHER_BROKEN, OWN_BROKEN};
 
+/// The pair force of a bond (N/m⁶, weighted by its partial volumes) and the deformation it
+/// works through since the previous evaluation.
+#[derive(Debug, Clone, Copy)]
+pub enum Work {
+    /// A central force f M: its work is f de, exactly (M·dη = de).
+    Along { force: f64, extension: f64 },
+    /// Any force: F·dη, with `step` the change of the relative displacement η (padded to 3).
+    Vector { force: [f64; 3], step: [f64; 3] },
+}
+
 /// The remaining fractions (μ_ij, μ_ji) of the two halves of a bond with binary damage.
 #[inline(always)]
 pub fn binary_factors(status: u8) -> (f64, f64) {
@@ -61,8 +71,11 @@ impl Stretch {
 /// decides each half with the parameters of the node that owns it. The provided `on_stretch`,
 /// `on_work` and `factors` are what the engine calls.
 pub trait DamageLaw: Sync + Send {
-    /// f64 words of history per directed bond entry (0: none is stored).
+    /// f64 words of history per directed bond entry (0: none is stored), for a material whose
+    /// force states lie along the bond (`Material::CENTRAL`).
     const HISTORY: usize = 0;
+    /// The same for other materials (their bond work needs the force vector).
+    const HISTORY_VECTOR: usize = Self::HISTORY;
     /// Decides from the stretch, in the first sweep over a node's bonds in a step.
     const ON_STRETCH: bool = false;
     /// Decides from the work done on the bond, in the force sweep.
@@ -70,8 +83,8 @@ pub trait DamageLaw: Sync + Send {
     /// μ can lie strictly between 0 and 1 (softening); otherwise it is 0 or 1.
     const PARTIAL: bool = false;
     /// The two halves of a bond always break together (one law and one set of parameters
-    /// for every node): the engine treats any broken bit as a broken bond and every bond it
-    /// visits as whole, μ = 1.
+    /// for every node): the engine treats any broken bit as a broken bond, and every bond it
+    /// visits as whole (μ = 1 unless the law is `PARTIAL`).
     const HALVES_TOGETHER: bool = false;
 
     /// Records the bond's stretch in its history (e.g. the largest stretch so far).
@@ -84,15 +97,14 @@ pub trait DamageLaw: Sync + Send {
         false
     }
 
-    /// Records the work of the pair force over the last step: `force` is the pair force
-    /// density per unit quadrature weight (N/m⁶, padded to 3 components), `step` the change of
-    /// the relative displacement η since the previous evaluation (m).
+    /// Records the work of the pair force since the previous evaluation.
     #[inline(always)]
-    fn record_work(&self, _force: [f64; 3], _step: [f64; 3], _history: &mut [f64]) {}
+    fn record_work(&self, _work: Work, _history: &mut [f64]) {}
 
-    /// Whether the half owned by `node` fails after `record_work`.
+    /// Whether the half owned by `node` fails after `record_work`; `weight` is the bond's
+    /// quadrature weight φ̄ = ½(φ_ij + φ_ji), which the recorded work carries.
     #[inline(always)]
-    fn fails_on_work(&self, _node: usize, _extension: f64, _history: &[f64]) -> bool {
+    fn fails_on_work(&self, _node: usize, _extension: f64, _weight: f64, _history: &[f64]) -> bool {
         false
     }
 
@@ -133,28 +145,28 @@ pub trait DamageLaw: Sync + Send {
     }
 
     /// Force sweep: records the work and breaks the halves that fail (`extension` =
-    /// |ξ+η| − |ξ|). Returns 1 if node i's own half broke now.
+    /// |ξ+η| − |ξ|, `weight` the bond's φ̄). Returns 1 if node i's own half broke now.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn on_work(
         &self,
         i: usize,
         j: usize,
-        force: [f64; 3],
-        step: [f64; 3],
+        work: Work,
         extension: f64,
+        weight: f64,
         protected: bool,
         history: &mut [f64],
         status: &mut u8,
     ) -> u64 {
-        self.record_work(force, step, history);
+        self.record_work(work, history);
         if protected {
             return 0;
         }
         break_halves(
             status,
-            self.fails_on_work(i, extension, history),
-            self.fails_on_work(j, extension, history),
+            self.fails_on_work(i, extension, weight, history),
+            self.fails_on_work(j, extension, weight, history),
         )
     }
 
@@ -185,18 +197,25 @@ pub enum Damage {
 }
 
 impl Damage {
-    /// f64 words of history per directed bond.
-    pub fn history_words(&self) -> usize {
+    /// f64 words of history per directed bond, for a central material or not.
+    pub fn history_words(&self, central: bool) -> usize {
+        fn words<L: DamageLaw>(central: bool) -> usize {
+            if central {
+                L::HISTORY
+            } else {
+                L::HISTORY_VECTOR
+            }
+        }
         match self {
-            Damage::CriticalStretch(_) => CriticalStretch::HISTORY,
-            Damage::CriticalEnergy(_) => CriticalEnergy::HISTORY,
-            Damage::Softening(_) => Softening::HISTORY,
-            Damage::Mixed(_) => MixedDamage::HISTORY,
+            Damage::CriticalStretch(_) => words::<CriticalStretch>(central),
+            Damage::CriticalEnergy(_) => words::<CriticalEnergy>(central),
+            Damage::Softening(_) => words::<Softening>(central),
+            Damage::Mixed(_) => words::<MixedDamage>(central),
         }
     }
 
-    /// Whether the law integrates the work done on bonds (the engine then keeps the positions
-    /// of the previous evaluation).
+    /// Whether the law integrates the work done on bonds (for a non-central material the
+    /// engine then keeps the positions of the previous evaluation).
     pub fn records_work(&self) -> bool {
         match self {
             Damage::CriticalStretch(_) | Damage::Softening(_) => false,
@@ -204,9 +223,9 @@ impl Damage {
         }
     }
 
-    /// Bytes per directed bond this law stores.
-    pub fn bytes_per_bond(&self) -> usize {
-        8 * self.history_words()
+    /// Bytes per directed bond this law stores (for a central material or not).
+    pub fn bytes_per_bond(&self, central: bool) -> usize {
+        8 * self.history_words(central)
     }
 
     /// A critical-stretch law that never breaks a bond.

@@ -150,7 +150,46 @@ impl Softening {
     /// Force envelope g(s) in stretch units (force = c·g), for s ≥ 0.
     #[inline(always)]
     pub fn envelope(&self, node: usize, s: f64) -> f64 {
-        let (s1, sc) = (self.s1.at(node), self.sc.at(node));
+        self.at(node).envelope(s)
+    }
+
+    /// The parameters of node i's half.
+    #[inline(always)]
+    fn at(&self, node: usize) -> UniformSoftening {
+        UniformSoftening {
+            shape: self.shape,
+            s1: self.s1.at(node),
+            s2: self.s2.at(node),
+            sc: self.sc.at(node),
+        }
+    }
+
+    /// The one-parameter-set form, if every node has the same parameters.
+    pub fn uniform_form(&self) -> Option<UniformSoftening> {
+        Some(UniformSoftening {
+            shape: self.shape,
+            s1: self.s1.uniform()?,
+            s2: self.s2.uniform()?,
+            sc: self.sc.uniform()?,
+        })
+    }
+}
+
+/// A softening law with one set of parameters for every node: both halves soften and break
+/// together, and μ is computed once per bond. The engine runs this form when it can.
+#[derive(Debug, Clone, Copy)]
+pub struct UniformSoftening {
+    pub shape: Shape,
+    pub s1: f64,
+    pub s2: f64,
+    pub sc: f64,
+}
+
+impl UniformSoftening {
+    /// Force envelope g(s) in stretch units (force = c·g), for s ≥ 0.
+    #[inline(always)]
+    pub fn envelope(&self, s: f64) -> f64 {
+        let (s1, sc) = (self.s1, self.sc);
         if s <= s1 {
             return s;
         }
@@ -160,7 +199,7 @@ impl Softening {
         match self.shape {
             Shape::Bilinear => s1 * (sc - s) / (sc - s1),
             Shape::Trilinear { beta } => {
-                let s2 = self.s2.at(node);
+                let s2 = self.s2;
                 if s <= s2 {
                     s1 * (1.0 - (1.0 - beta) * (s - s1) / (s2 - s1))
                 } else {
@@ -168,6 +207,66 @@ impl Softening {
                 }
             }
         }
+    }
+
+    /// μ = g(s_max)/s_max beyond the peak (the secant to the origin), 1 before it.
+    #[inline(always)]
+    pub fn secant(&self, s_max: f64) -> f64 {
+        if s_max <= self.s1 {
+            1.0
+        } else {
+            self.envelope(s_max) / s_max
+        }
+    }
+}
+
+impl DamageLaw for UniformSoftening {
+    const HISTORY: usize = 1;
+    const ON_STRETCH: bool = true;
+    const PARTIAL: bool = true;
+    const HALVES_TOGETHER: bool = true;
+
+    #[inline(always)]
+    fn record_stretch(&self, st: Stretch, h: &mut [f64]) {
+        record_largest(st, h);
+    }
+
+    #[inline(always)]
+    fn fails_on_stretch(&self, _node: usize, _: Stretch, h: &[f64]) -> bool {
+        h[0] >= self.sc
+    }
+
+    /// Both halves share the secant: computed once.
+    #[inline(always)]
+    fn factors(&self, _i: usize, _j: usize, h: &[f64], _status: u8) -> (f64, f64) {
+        let mu = self.secant(h[0]);
+        (mu, mu)
+    }
+
+    /// Only a new largest stretch costs a division; a bond with a no-fail end is recorded up
+    /// to the peak stretch only, so it stays elastic and never breaks.
+    #[inline(always)]
+    fn on_stretch(
+        &self,
+        _i: usize,
+        _j: usize,
+        st: Stretch,
+        protected: impl Fn() -> bool,
+        h: &mut [f64],
+        status: &mut u8,
+    ) -> u64 {
+        if st.exceeds(h[0]) {
+            let s = st.s();
+            if s > self.s1 && protected() {
+                return 0;
+            }
+            h[0] = s;
+            if s >= self.sc {
+                *status = super::BROKEN;
+                return 1;
+            }
+        }
+        0
     }
 }
 
@@ -198,12 +297,7 @@ impl DamageLaw for Softening {
     /// μ = g(s_max)/s_max beyond the peak: the secant to the origin.
     #[inline(always)]
     fn factor(&self, node: usize, h: &[f64]) -> f64 {
-        let s_max = h[0];
-        if s_max <= self.s1.at(node) {
-            1.0
-        } else {
-            self.envelope(node, s_max) / s_max
-        }
+        self.at(node).secant(h[0])
     }
 }
 

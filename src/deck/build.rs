@@ -300,7 +300,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
 fn damage_history_words(d: &DamageDeck) -> usize {
     use crate::damage::DamageLaw;
     match d {
-        DamageDeck::CriticalEnergy { .. } => CriticalEnergy::HISTORY,
+        DamageDeck::CriticalEnergy { .. } => CriticalEnergy::HISTORY_VECTOR,
         DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. } => Softening::HISTORY,
         _ => 0,
     }

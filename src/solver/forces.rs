@@ -10,7 +10,7 @@ use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::damage::critical_stretch::UniformCriticalStretch;
-use crate::damage::{Damage, DamageLaw, PerNode, Stretch, BROKEN, INTACT, OWN_BROKEN};
+use crate::damage::{Damage, DamageLaw, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN};
 use crate::material::simd::{self, NodeBonds};
 use crate::material::{BondGeom, Material, PointError};
 use crate::math::{to3, Vector};
@@ -102,7 +102,7 @@ impl<const D: usize, W: Weights, Dm: DamageLaw> Sweep<'_, D, W, Dm> {
             self.damage,
         );
         let yi = current[i];
-        let hw = Dm::HISTORY;
+        let hw = history_words::<D, M, Dm>();
         let neighbors = &self.bonds.neighbors[r.clone()];
         let ref_lengths = &self.bonds.ref_lengths[r.clone()];
         let mut broke = 0;
@@ -130,7 +130,7 @@ impl<const D: usize, W: Weights, Dm: DamageLaw> Sweep<'_, D, W, Dm> {
                 continue;
             }
             // Both halves intact (the common case) needs no call into the law.
-            let (mu_ij, mu_ji) = if Dm::HALVES_TOGETHER || (*st == INTACT && !Dm::PARTIAL) {
+            let (mu_ij, mu_ji) = if !Dm::PARTIAL && (Dm::HALVES_TOGETHER || *st == INTACT) {
                 (1.0, 1.0)
             } else {
                 damage.factors(i, j, history, *st)
@@ -160,6 +160,15 @@ impl<const D: usize, W: Weights, Dm: DamageLaw> Sweep<'_, D, W, Dm> {
             });
         }
         broke
+    }
+}
+
+/// History words per bond entry of law `Dm` with material `M`.
+const fn history_words<const D: usize, M: Material<D>, Dm: DamageLaw>() -> usize {
+    if M::CENTRAL {
+        Dm::HISTORY
+    } else {
+        Dm::HISTORY_VECTOR
     }
 }
 
@@ -232,10 +241,22 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 }
                 PerNode::Varying(_) => self.compute_with(&quad, d, body, bonds, state),
             },
-            (Damage::CriticalEnergy(d), Some(u)) => self.compute_with(u, d, body, bonds, state),
-            (Damage::CriticalEnergy(d), None) => self.compute_with(&quad, d, body, bonds, state),
-            (Damage::Softening(d), Some(u)) => self.compute_with(u, d, body, bonds, state),
-            (Damage::Softening(d), None) => self.compute_with(&quad, d, body, bonds, state),
+            (Damage::CriticalEnergy(d), Some(u)) => match d.uniform_form() {
+                Some(law) => self.compute_with(u, &law, body, bonds, state),
+                None => self.compute_with(u, d, body, bonds, state),
+            },
+            (Damage::CriticalEnergy(d), None) => match d.uniform_form() {
+                Some(law) => self.compute_with(&quad, &law, body, bonds, state),
+                None => self.compute_with(&quad, d, body, bonds, state),
+            },
+            (Damage::Softening(d), Some(u)) => match d.uniform_form() {
+                Some(law) => self.compute_with(u, &law, body, bonds, state),
+                None => self.compute_with(u, d, body, bonds, state),
+            },
+            (Damage::Softening(d), None) => match d.uniform_form() {
+                Some(law) => self.compute_with(&quad, &law, body, bonds, state),
+                None => self.compute_with(&quad, d, body, bonds, state),
+            },
             (Damage::Mixed(d), _) => self.compute_with(&quad, d, body, bonds, state),
         };
         self.damage = damage;
@@ -251,7 +272,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         state: &mut State<D>,
     ) -> u64 {
         let no_fail: &[bool] = &body.no_fail;
-        let hw = Dm::HISTORY;
+        let hw = history_words::<D, M, Dm>();
         debug_assert_eq!(state.history.len(), bonds.len() * hw);
         let mut newly_broken = 0u64;
         // The AVX2 kernels, where the model has them: 3D, uniform grid, one critical stretch,
@@ -387,21 +408,37 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             f += pair_force(material, i, j, &geom, pi, pj);
                             return 0;
                         }
-                        // Energy-based failure needs the pair force first: record its work per
-                        // unit quadrature weight φ̄ (so a bond cut by the horizon boundary
-                        // dissipates its share w_c φ̄ V_i V_j) since the previous evaluation,
-                        // then drop the halves that broke.
-                        let force = pair_force_density(material, i, j, &geom, pi, pj);
-                        let weight = 0.5 * (geom.phi_ij + geom.phi_ji);
-                        let per_weight = if weight > 0.0 { 1.0 / weight } else { 0.0 };
-                        let step = geom.y - (previous[j] - previous[i]);
+                        // Energy-based failure needs the pair force first: record its work since
+                        // the previous evaluation, then drop the halves that broke.
+                        let extension = geom.len - geom.ref_len;
+                        let (force, work) = if M::CENTRAL {
+                            let per_length = material.pair_force_per_length(i, j, &geom, pi, pj);
+                            let along = per_length * geom.len;
+                            (
+                                geom.y * per_length,
+                                Work::Along {
+                                    force: along,
+                                    extension,
+                                },
+                            )
+                        } else {
+                            let force = material.pair_force(i, j, &geom, pi, pj);
+                            let step = geom.y - (previous[j] - previous[i]);
+                            (
+                                force,
+                                Work::Vector {
+                                    force: to3(&force),
+                                    step: to3(&step),
+                                },
+                            )
+                        };
                         let before = *status;
                         let broke = damage.on_work(
                             i,
                             j,
-                            to3(&(force * per_weight)),
-                            to3(&step),
-                            geom.len - geom.ref_len,
+                            work,
+                            extension,
+                            0.5 * (geom.phi_ij + geom.phi_ji),
                             protected,
                             history,
                             status,
@@ -423,7 +460,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             })
             .sum::<u64>();
 
-        if Dm::ON_WORK {
+        if Dm::ON_WORK && !M::CENTRAL {
             state.previous.clone_from(&state.current);
         }
         state.broken += newly_broken;
@@ -453,7 +490,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         state: &'a State<D>,
         i: usize,
     ) -> impl Iterator<Item = BondGeom<D>> + 'a {
-        let hw = self.damage.history_words();
+        let hw = self.damage.history_words(M::CENTRAL);
         bonds
             .family(i)
             .filter(move |&b| state.status[b] & OWN_BROKEN == 0)
@@ -582,22 +619,5 @@ fn pair_force<const D: usize, M: Material<D>>(
         g.y * (material.pair_force_per_length(i, j, g, pi, pj) * g.vol_j)
     } else {
         material.pair_force(i, j, g, pi, pj) * g.vol_j
-    }
-}
-
-/// The pair force density vector of bond i→j (N/m⁶, before the V_j of the neighbour).
-#[inline(always)]
-fn pair_force_density<const D: usize, M: Material<D>>(
-    material: &M,
-    i: usize,
-    j: usize,
-    g: &BondGeom<D>,
-    pi: &M::Point,
-    pj: &M::Point,
-) -> Vector<D> {
-    if M::CENTRAL {
-        g.y * material.pair_force_per_length(i, j, g, pi, pj)
-    } else {
-        material.pair_force(i, j, g, pi, pj)
     }
 }

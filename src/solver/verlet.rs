@@ -65,8 +65,8 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         safety_factor: f64,
     ) -> Result<Self, StepError> {
         let damage = damage.into();
-        let history_words = damage.history_words();
-        let damage_records_work = damage.records_work();
+        let history_words = damage.history_words(M::CENTRAL);
+        let keep_previous = damage.records_work() && !M::CENTRAL;
         let engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
         let dt_stable = engine.stable_time_step(&body, &bonds);
         let densities = (0..body.len())
@@ -78,7 +78,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .filter(|&(i, k)| mask[i][k])
             .collect();
         let mut state = State::new(&body, &bonds, history_words);
-        if damage_records_work {
+        if keep_previous {
             state.previous = state.current.clone();
         }
         let mut sim = Simulation {
