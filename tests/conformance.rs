@@ -31,6 +31,31 @@ fn sim_of<const D: usize, M: Material<D>>(material: M) -> Simulation<D, M> {
     )
 }
 
+/// The same lattice with horizons changing 2:1 across its middle (δ = 3Δx for x < L/2, 6Δx
+/// beyond: dual-horizon PD); the material is made for the body's horizons.
+fn two_horizon_sim_of<const D: usize, M: Material<D>>(
+    make: impl FnOnce(&[f64]) -> M,
+) -> Simulation<D, M> {
+    let (n, dx) = (if D == 2 { 12 } else { 7 }, 1e-3);
+    let shape = peridyn::geometry::Shape::cube(D, n as f64 * dx);
+    let (body, bonds) = two_horizon_body::<D>(
+        &shape,
+        dx,
+        3.0,
+        6.0,
+        0.5 * n as f64 * dx,
+        PartialVolume::Hhb,
+    );
+    let material = make(&body.horizons);
+    simulation(
+        body,
+        bonds,
+        material,
+        CriticalStretch::never(),
+        PartialVolume::Hhb,
+    )
+}
+
 fn displace<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     f: impl Fn(usize, &Vector<D>) -> Vector<D>,
@@ -47,9 +72,12 @@ fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
     sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
 }
 
-fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) {
+fn check_model<const D: usize, M: Material<D>>(name: &str, material: M) {
+    check_sim(name, sim_of::<D, M>(material));
+}
+
+fn check_sim<const D: usize, M: Material<D>>(name: &str, mut sim: Simulation<D, M>) {
     // Reference state: exactly zero force.
-    let mut sim = sim_of::<D, M>(material.clone());
     assert_eq!(max_force(&sim), 0.0, "{name}: force in the reference state");
 
     // Random small deformation: momentum balance Σ V f = 0 to round-off.
@@ -112,11 +140,18 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
     println!("{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e})");
 }
 
+/// Models on the uniform lattice, then models on the lattice with two horizons (written as a
+/// closure of the body's horizons).
 macro_rules! for_every_model {
-    ($($name:literal => $d:literal, $material:expr;)*) => {
+    (
+        $($name:literal => $d:literal, $material:expr;)*
+        two horizons:
+        $($dh_name:literal => $dh_d:literal, $dh_material:expr;)*
+    ) => {
         #[test]
         fn every_model_conforms() {
             $( check_model::<$d, _>($name, $material); )*
+            $( check_sim($dh_name, two_horizon_sim_of::<$dh_d, _>($dh_material)); )*
         }
     };
 }
@@ -128,4 +163,11 @@ for_every_model! {
     "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3);
     "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3);
     "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3);
+    two horizons:
+    "pmb dual horizon 2:1 plane stress" => 2, |h: &[f64]| {
+        pmb(Dimensionality::PlaneStress, 70e9, 3e-3, MicromodulusProfile::Constant).with_horizons(h)
+    };
+    "pmb dual horizon 2:1 3D conical" => 3, |h: &[f64]| {
+        pmb(Dimensionality::ThreeD, 70e9, 3e-3, MicromodulusProfile::Conical).with_horizons(h)
+    };
 }
