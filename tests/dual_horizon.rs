@@ -947,3 +947,112 @@ fn homogeneous_strain_ghost_force() {
     );
     assert!(peak > 0.05 && outside < 1e-9 && trad_interior < 1e-9);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The deck path: `[[blocks]] horizon` calibrates each node for its own horizon.
+// ---------------------------------------------------------------------------------------------
+
+/// A 32Δx × 16Δx plate whose left half (block 1, which holds the first node of the Morton
+/// order) has horizon 6Δx; the rest keeps the discretization's 3Δx. `stiffness` is the PMB
+/// stiffness line of `[material]`.
+fn block_horizon_deck(stiffness: &str) -> String {
+    format!(
+        r#"
+version = 1
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [0.032, 0.016] }}
+spacing = 1e-3
+horizon_ratio = 3.0
+
+[material]
+type = "pmb"
+density = 2000.0
+{stiffness}
+fracture_energy = 100.0
+
+[[blocks]]
+id = 1
+region = {{ type = "rectangle", min = [-1.0, -1.0], max = [0.016, 1.0] }}
+horizon = 6e-3
+
+[solver]
+type = "explicit"
+steps = 1
+"#
+    )
+}
+
+/// Builds the deck and checks every node's micromodulus and critical stretch against a
+/// direct calibration at its own horizon for Young's modulus `e`.
+fn check_block_horizons(stiffness: &str, e: f64) {
+    use peridyn::damage::Damage;
+    use peridyn::deck::build::{build_constitution, build_model, MaterialChoice};
+    use peridyn::deck::LoadedDeck;
+    let ld = LoadedDeck::from_str(
+        &block_horizon_deck(stiffness),
+        std::path::Path::new("dh.toml"),
+    )
+    .unwrap();
+    let model = build_model::<2>(&ld).unwrap();
+    let body = &model.body;
+    assert_eq!(
+        body.horizons[0],
+        6.0 * DX,
+        "the first node lies in the block"
+    );
+    let c = build_constitution(&ld, &model).unwrap();
+    let MaterialChoice::Pmb(m) = &c.material else {
+        panic!("one PMB material")
+    };
+    let Damage::CriticalStretch(law) = &c.damage else {
+        panic!("critical stretch")
+    };
+    let dim = Dimensionality::PlaneStress;
+    let profile = MicromodulusProfile::Constant;
+    let (mut dc, mut ds) = (0.0f64, 0.0f64);
+    for i in 0..body.len() {
+        let h = body.horizons[i];
+        let expected_c = Pmb::micromodulus(e, dim, profile, h);
+        let expected_s0 = Pmb::critical_stretch_from_g0(100.0, expected_c, dim, profile, h);
+        dc = dc.max((m.c0.at(i) * 1e-3 / expected_c - 1.0).abs());
+        ds = ds.max((law.s0.at(i) / expected_s0 - 1.0).abs());
+    }
+    let report = &c.reports[0];
+    println!(
+        "deck with `{stiffness}` and a block of horizon 6Δx: micromodulus off by {dc:.2e}, \
+         critical stretch by {ds:.2e} (relative, worst node); report: E = {:.4e} Pa, c0 = {:.4e}, \
+         s0 = {:.4e}, δ from {} to {} m",
+        report.youngs_modulus,
+        report.micromodulus.unwrap(),
+        report.critical_stretch.unwrap(),
+        report.horizon_min,
+        report.horizon_max
+    );
+    assert!(
+        dc < 1e-12 && ds < 1e-12,
+        "per-node calibration off: c {dc:e}, s0 {ds:e}"
+    );
+    // The report is at the discretization's horizon.
+    let at_reference = Pmb::micromodulus(e, dim, profile, 3.0 * DX);
+    assert!((report.micromodulus.unwrap() / at_reference - 1.0).abs() < 1e-12);
+    assert!((report.youngs_modulus / e - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn deck_block_horizons_calibrate_each_node() {
+    let e = 70e9;
+    check_block_horizons(&format!("youngs_modulus = {e:e}"), e);
+    // A micromodulus is that of the discretization's horizon, whichever node comes first.
+    let c = Pmb::micromodulus(
+        e,
+        Dimensionality::PlaneStress,
+        MicromodulusProfile::Constant,
+        3.0 * DX,
+    );
+    check_block_horizons(&format!("micromodulus = {c:e}"), e);
+}
