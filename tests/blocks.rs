@@ -408,3 +408,77 @@ fn pmb_and_lps_blocks_are_springs_in_series() {
         100.0 * local
     );
 }
+
+/// Each half of a bond fails by its own block's law (`damage::mixed`): under a uniform
+/// stretch between the two blocks' critical stretches, the weak block's bonds and the weak
+/// halves of the interface bonds break, the strong ones do not, and momentum stays balanced.
+#[test]
+fn interface_bond_halves_break_by_their_own_law() {
+    use peridyn::state::{BROKEN, INTACT, OTHER_BROKEN, OWN_BROKEN};
+    let (strong, weak) = (1e-3, 5e-4);
+    let table = |s0: f64| {
+        format!(
+            "type = \"pmb\"\ndensity = {RHO:e}\nyoungs_modulus = 70e9\ncritical_stretch = {s0:e}"
+        )
+    };
+    let text = deck(&table(strong), 70e9, Some((&table(weak), 70e9)));
+    let ld = LoadedDeck::from_str(&text, Path::new("halves.toml")).unwrap();
+    let model = build_model::<2>(&ld).unwrap();
+    let (MaterialChoice::Mixed(mixed), rest) = build_constitution(&ld, &model).unwrap().split()
+    else {
+        panic!("two materials")
+    };
+    let (mut sim, _) = prepare(&ld, model, mixed, rest).unwrap();
+    let strain = 7.5e-4;
+    let body = sim.body.clone();
+    for i in 0..body.len() {
+        let u = peridyn::math::Vector::<2>::new(strain * body.positions[i][0], 0.0);
+        sim.state.set_displacement(&body, i, u);
+    }
+    sim.refresh_forces().unwrap();
+    let weak_node = |i: usize| sim.engine.material.material_of[i] == 1;
+    let (mut interface_half, mut checked) = (0, 0);
+    for i in 0..body.len() {
+        for b in sim.bonds.family(i) {
+            let j = sim.bonds.neighbors[b] as usize;
+            let (len, l) = (
+                (sim.state.current[j] - sim.state.current[i]).norm(),
+                sim.bonds.ref_lengths[b],
+            );
+            let breaks = |s0: f64| len - l > s0 * l;
+            let own = if weak_node(i) {
+                breaks(weak)
+            } else {
+                breaks(strong)
+            };
+            let other = if weak_node(j) {
+                breaks(weak)
+            } else {
+                breaks(strong)
+            };
+            let expected = match (own, other) {
+                (false, false) => INTACT,
+                (true, false) => OWN_BROKEN,
+                (false, true) => OTHER_BROKEN,
+                (true, true) => BROKEN,
+            };
+            assert_eq!(sim.state.status[b], expected, "bond {i}→{j}");
+            if expected == OWN_BROKEN || expected == OTHER_BROKEN {
+                interface_half += 1;
+            }
+            checked += 1;
+        }
+    }
+    let (mut total, mut magnitude) = (peridyn::math::Vector::<2>::zeros(), 0.0);
+    for i in 0..body.len() {
+        total += sim.state.force[i] * body.volumes[i];
+        magnitude += sim.state.force[i].norm() * body.volumes[i];
+    }
+    println!(
+        "{checked} directed bonds checked, {interface_half} with exactly one half broken \
+         (interface); |Σ V f| / Σ V|f| = {:.2e}",
+        total.norm() / magnitude
+    );
+    assert!(interface_half > 0);
+    assert!(total.norm() < 1e-12 * magnitude);
+}
