@@ -5,9 +5,11 @@
 mod common;
 
 use common::*;
+use peridyn::body::Body;
 use peridyn::bonds::PartialVolume;
 use peridyn::damage::CriticalStretch;
-use peridyn::material::{Dimensionality, Material, MicromodulusProfile};
+use peridyn::material::mixed::BlockMaterial;
+use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Mixed};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
 
@@ -31,6 +33,56 @@ fn sim_of<const D: usize, M: Material<D>>(material: M) -> Simulation<D, M> {
     )
 }
 
+/// Lattices for models that are made for their body.
+enum Layout {
+    /// Horizons changing 2:1 across the middle: δ = 3Δx for x < L/2, 6Δx beyond (dual-horizon
+    /// PD).
+    TwoHorizons,
+    /// One horizon (3Δx); the material tells the blocks apart by position.
+    OneHorizon,
+}
+
+fn sim_on<const D: usize, M: Material<D>>(
+    layout: Layout,
+    make: impl FnOnce(&Body<D>) -> M,
+) -> Simulation<D, M> {
+    let (n, dx) = (if D == 2 { 12 } else { 7 }, 1e-3);
+    let (body, bonds) = match layout {
+        Layout::TwoHorizons => two_horizon_body::<D>(
+            &peridyn::geometry::Shape::cube(D, n as f64 * dx),
+            dx,
+            3.0,
+            6.0,
+            0.5 * n as f64 * dx,
+            PartialVolume::Hhb,
+        ),
+        Layout::OneHorizon => lattice_body::<D>(n, dx, 3.0, PartialVolume::Hhb),
+    };
+    let material = make(&body);
+    simulation(
+        body,
+        bonds,
+        material,
+        CriticalStretch::never(),
+        PartialVolume::Hhb,
+    )
+}
+
+/// PMB for x < 6Δx, LPS beyond (`Mixed`: each half of a bond from its own node's material).
+fn pmb_lps<const D: usize>(body: &Body<D>, dim: Dimensionality) -> Mixed {
+    Mixed {
+        materials: vec![
+            BlockMaterial::Pmb(pmb(dim, 70e9, 3e-3, MicromodulusProfile::Constant)),
+            BlockMaterial::Lps(lps(dim, 200e9, 0.3, 3e-3)),
+        ],
+        material_of: body
+            .positions
+            .iter()
+            .map(|p| (p[0] >= 6e-3) as u16)
+            .collect(),
+    }
+}
+
 fn displace<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     f: impl Fn(usize, &Vector<D>) -> Vector<D>,
@@ -47,9 +99,12 @@ fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
     sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
 }
 
-fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) {
+fn check_model<const D: usize, M: Material<D>>(name: &str, material: M) {
+    check_sim(name, sim_of::<D, M>(material));
+}
+
+fn check_sim<const D: usize, M: Material<D>>(name: &str, mut sim: Simulation<D, M>) {
     // Reference state: exactly zero force.
-    let mut sim = sim_of::<D, M>(material.clone());
     assert_eq!(max_force(&sim), 0.0, "{name}: force in the reference state");
 
     // Random small deformation: momentum balance Σ V f = 0 to round-off.
@@ -112,11 +167,18 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
     println!("{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e})");
 }
 
+/// Models on the uniform lattice, then models made for their body (a `Layout` and a closure
+/// of the body).
 macro_rules! for_every_model {
-    ($($name:literal => $d:literal, $material:expr;)*) => {
+    (
+        $($name:literal => $d:literal, $material:expr;)*
+        made for the body:
+        $($b_name:literal => $b_d:literal, $layout:ident, $b_material:expr;)*
+    ) => {
         #[test]
         fn every_model_conforms() {
             $( check_model::<$d, _>($name, $material); )*
+            $( check_sim($b_name, sim_on::<$b_d, _>(Layout::$layout, $b_material)); )*
         }
     };
 }
@@ -128,4 +190,13 @@ for_every_model! {
     "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3);
     "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3);
     "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3);
+    made for the body:
+    "pmb dual horizon 2:1 plane stress" => 2, TwoHorizons, |b: &Body<2>| {
+        pmb(Dimensionality::PlaneStress, 70e9, 3e-3, MicromodulusProfile::Constant).with_horizons(&b.horizons)
+    };
+    "pmb dual horizon 2:1 3D conical" => 3, TwoHorizons, |b: &Body<3>| {
+        pmb(Dimensionality::ThreeD, 70e9, 3e-3, MicromodulusProfile::Conical).with_horizons(&b.horizons)
+    };
+    "mixed pmb | lps plane stress" => 2, OneHorizon, |b: &Body<2>| pmb_lps(b, Dimensionality::PlaneStress);
+    "mixed pmb | lps 3D" => 3, OneHorizon, |b: &Body<3>| pmb_lps(b, Dimensionality::ThreeD);
 }

@@ -422,7 +422,9 @@ struct Calibrated {
     report: MaterialReport,
 }
 
-/// Calibrates the material table `spec` (at deck key `key`) for a horizon δ.
+/// Calibrates the material table `spec` (at deck key `key`) for a horizon δ. A PMB
+/// `micromodulus` is that of `reference_horizon` (the horizon the material is reported at):
+/// another horizon gets the micromodulus of the same Young's modulus.
 fn calibrate(
     version: u32,
     spec: &MaterialDeck,
@@ -430,6 +432,7 @@ fn calibrate(
     dim: Dimensionality,
     thickness: f64,
     horizon: f64,
+    reference_horizon: f64,
 ) -> Result<Calibrated, DeckIssue> {
     let porosity = spec.porosity().map(|p| Porosity {
         porosity: p.porosity,
@@ -456,7 +459,11 @@ fn calibrate(
             ..
         } => {
             let c0 = match micromodulus {
-                Some(c) => solid(*c),
+                Some(c) if horizon == reference_horizon => solid(*c),
+                Some(c) => {
+                    let e = Pmb::youngs_modulus_of(solid(*c), dim, profile, reference_horizon);
+                    Pmb::micromodulus(e, dim, profile, horizon)
+                }
                 None => {
                     Pmb::micromodulus(solid(youngs_modulus.unwrap_or(0.0)), dim, profile, horizon)
                 }
@@ -656,13 +663,33 @@ pub fn build_constitution<const D: usize>(
         let nodes: Vec<usize> = (0..body.len())
             .filter(|&i| model.material_of[i] as usize == k)
             .collect();
-        // Calibrate at each horizon this material's nodes have (the first is the report's).
+        // Calibrate at each horizon this material's nodes have. The report's is the
+        // discretization's horizon when some of them have it, else the smallest of theirs (not
+        // the horizon of whichever node comes first: a deck's `micromodulus` is given at it).
         let mut used: Vec<usize> = nodes.iter().map(|&i| class[i]).collect();
         used.sort_unstable();
         used.dedup();
+        let reference = used
+            .iter()
+            .copied()
+            .find(|&c| distinct[c] == model.horizon)
+            .or_else(|| {
+                used.iter()
+                    .copied()
+                    .min_by(|&a, &b| distinct[a].total_cmp(&distinct[b]))
+            })
+            .expect("a material in use has nodes");
         let mut at: Vec<Option<Calibrated>> = (0..distinct.len()).map(|_| None).collect();
         for &c in &used {
-            match calibrate(deck.version, spec, key, dim, thickness, distinct[c]) {
+            match calibrate(
+                deck.version,
+                spec,
+                key,
+                dim,
+                thickness,
+                distinct[c],
+                distinct[reference],
+            ) {
                 Ok(cal) => at[c] = Some(cal),
                 Err(issue) => issues.push(issue),
             }
@@ -670,7 +697,7 @@ pub fn build_constitution<const D: usize>(
         if !issues.is_empty() {
             continue;
         }
-        let first = at[used[0]].as_ref().expect("calibrated");
+        let first = at[reference].as_ref().expect("calibrated");
         let mut report = first.report.clone();
         report.nodes = nodes.len();
         let hs: Vec<f64> = used.iter().map(|&c| distinct[c]).collect();

@@ -89,3 +89,24 @@ pub fn simulation<const D: usize, M: Material<D>>(
 pub fn strain3(e: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     *e
 }
+
+/// A lattice over `shape` (spacing `dx`) whose nodes with x < `split` have horizon `m_left·dx`
+/// and the others `m_right·dx` (dual-horizon PD); bonds built for those horizons.
+pub fn two_horizon_body<const D: usize>(
+    shape: &Shape,
+    dx: f64,
+    m_left: f64,
+    m_right: f64,
+    split: f64,
+    rule: PartialVolume,
+) -> (Body<D>, Bonds) {
+    let cloud = lattice(shape, D, dx, THICKNESS).unwrap();
+    let mut body = Body::<D>::from_cloud(cloud, m_left * dx, THICKNESS);
+    for i in 0..body.len() {
+        if body.positions[i][0] >= split {
+            body.horizons[i] = m_right * dx;
+        }
+    }
+    let bonds = build_bonds(&body, rule, &[]);
+    (body, bonds)
+}
