@@ -4,7 +4,7 @@
 use peridyn::deck::build::{build_constitution, build_model, MaterialChoice};
 use peridyn::deck::LoadedDeck;
 use peridyn::run::prepare;
-use peridyn::state::INTACT;
+use peridyn::state::{BROKEN, INTACT};
 use std::path::Path;
 
 const DECK: &str = r#"
@@ -140,15 +140,20 @@ fn no_fail_precrack_and_symmetric_breakage() {
             );
         }
     }
-    // Symmetric breakage.
+    // Symmetric breakage: each entry's own half is its reverse's other half, and with one
+    // law for both ends the two halves break together.
+    use peridyn::state::{OTHER_BROKEN, OWN_BROKEN};
     for i in 0..sim.body.len() {
         for b in sim.bonds.family(i) {
             let r = sim.bonds.reverse(i, b).expect("families are symmetric");
+            let (s, t) = (sim.state.status[b], sim.state.status[r]);
             assert_eq!(
-                sim.state.status[b], sim.state.status[r],
+                (s & OWN_BROKEN != 0, s & OTHER_BROKEN != 0),
+                (t & OTHER_BROKEN != 0, t & OWN_BROKEN != 0),
                 "bond {i}→{} and its reverse disagree",
                 sim.bonds.neighbors[b]
             );
+            assert!(s == 0 || s == BROKEN, "one half broken alone: {s}");
         }
     }
     assert!(checked_opening);

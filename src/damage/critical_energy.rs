@@ -205,7 +205,11 @@ mod tests {
         }
         // Unloading returns the work.
         let full = 0.5 * 3e12 * 1e-10;
-        assert!(along[0].abs() < 20.0 * 2f64.powi(-22) * full, "{}", along[0] / full);
+        assert!(
+            along[0].abs() < 20.0 * 2f64.powi(-22) * full,
+            "{}",
+            along[0] / full
+        );
         assert!(vector[0].abs() < 1e-12 * full);
     }
 }

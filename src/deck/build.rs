@@ -9,6 +9,7 @@ use crate::bonds::{Bonds, PartialVolume};
 use crate::damage::mixed::BlockLaw;
 use crate::damage::porosity::Porosity;
 use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
+use crate::damage::DamageLaw;
 use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
 use crate::discretize::{lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
@@ -199,12 +200,15 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         let nodes = body.node_set(name).expect("validated set name");
         body.mark_no_fail(&nodes);
     }
-    let history = deck
-        .materials_in_use(&materials)
-        .map(|m| damage_history_words(&m.damage()))
-        .max()
-        .unwrap_or(0)
-        * if materials.len() > 1 { 2 } else { 1 };
+    let history = if materials.len() > 1 {
+        MixedDamage::HISTORY_VECTOR
+    } else {
+        let m = deck.material_at(&materials[0]);
+        damage_history_words(
+            &m.damage(),
+            !matches!(m, MaterialDeck::Correspondence { .. }),
+        )
+    };
     let per_bond = memory::bytes_per_bond(
         Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
     );
@@ -296,10 +300,11 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     })
 }
 
-/// History words per bond of a damage law (for the memory estimate).
-fn damage_history_words(d: &DamageDeck) -> usize {
-    use crate::damage::DamageLaw;
+/// History words per bond of a damage law with a central material or not (for the memory
+/// estimate).
+fn damage_history_words(d: &DamageDeck, central: bool) -> usize {
     match d {
+        DamageDeck::CriticalEnergy { .. } if central => CriticalEnergy::HISTORY,
         DamageDeck::CriticalEnergy { .. } => CriticalEnergy::HISTORY_VECTOR,
         DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. } => Softening::HISTORY,
         _ => 0,

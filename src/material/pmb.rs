@@ -165,11 +165,16 @@ impl Pmb {
     /// the paper's Eq. 3).
     pub fn with_horizons(mut self, horizons: &[f64]) -> Self {
         let per_node = PerNode::from_values(horizons.to_vec());
-        if per_node.uniform() == Some(self.horizon) {
-            return self;
-        }
         let e = self.elasticity.youngs_modulus;
         let (dim, profile, t) = (self.dimensionality, self.profile, self.thickness);
+        match per_node.uniform() {
+            Some(h) if h == self.horizon => return self,
+            // One horizon, another than the reference: the uniform material at that horizon.
+            Some(h) => {
+                return Self::calibrated(e, self.rho, dim, profile, h, t);
+            }
+            None => {}
+        }
         let mut cache: Vec<(f64, f64)> = Vec::new();
         let c0 = horizons
             .iter()
