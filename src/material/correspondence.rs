@@ -38,12 +38,17 @@ pub enum ZeroEnergyControl {
 /// Ratio det K / (tr K / D)^D below which a shape tensor counts as singular.
 const SINGULAR: f64 = 1e-8;
 
-/// Point state: during the pre-pass the sums K and Σ ω Y⊗ξ w; after it, A = P K⁻¹, F and the
-/// stabilisation tensor C1 (zero for a detached node).
+/// Point state: during the pre-pass the sums K and Σ ω η⊗ξ w (η = Y − ξ); after it,
+/// A = P K⁻¹, the displacement gradient H = F − I and the stabilisation tensor C1 (zero for a
+/// detached node).
+///
+/// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
+/// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
+/// relative round-off of ε_machine/|H| on small strains.
 #[derive(Debug, Clone, Copy)]
 pub struct CorrespondencePoint<const D: usize> {
     pub a: SMatrix<f64, D, D>,
-    pub f: SMatrix<f64, D, D>,
+    pub h: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
     pub detached: bool,
 }
@@ -52,7 +57,7 @@ impl<const D: usize> Default for CorrespondencePoint<D> {
     fn default() -> Self {
         CorrespondencePoint {
             a: SMatrix::zeros(),
-            f: SMatrix::zeros(),
+            h: SMatrix::zeros(),
             c1: SMatrix::zeros(),
             detached: false,
         }
@@ -131,9 +136,10 @@ impl Correspondence {
         SMatrix::<f64, D, D>::identity() * (self.lambda * e.trace()) + e * (2.0 * self.mu)
     }
 
-    /// Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11).
-    fn strain<const D: usize>(f: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
-        (f.transpose() * f - SMatrix::<f64, D, D>::identity()) * 0.5
+    /// Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), written with H = F − I as
+    /// ½(H + Hᵀ + HᵀH) so that no I cancels.
+    fn strain<const D: usize>(h: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+        (h + h.transpose() + h.transpose() * h) * 0.5
     }
 
     /// Whether a shape tensor is too close to singular to invert.
@@ -144,7 +150,7 @@ impl Correspondence {
 
     /// Node i's force state on a bond seen from i (ξ, Y), times ω (the weights φ μ are
     /// applied by the caller): ω (A ξ + G C1 z) for Wan's control, ω A ξ + G c (z·M)/|ξ| M for
-    /// Silling's, z = Y − F ξ.
+    /// Silling's, z = Y − F ξ = (Y − ξ) − H ξ.
     #[inline(always)]
     fn half<const D: usize>(
         &self,
@@ -161,14 +167,20 @@ impl Correspondence {
         let omega = self.omega(i, ref_len);
         match self.control {
             ZeroEnergyControl::None => (p.a * xi) * omega,
-            ZeroEnergyControl::Wan { .. } => (p.a * xi + p.c1 * (y - p.f * xi)) * omega,
+            ZeroEnergyControl::Wan { .. } => (p.a * xi + p.c1 * Self::z(p, xi, y)) * omega,
             ZeroEnergyControl::Silling { coefficient } => {
-                let z = y - p.f * xi;
+                let z = Self::z(p, xi, y);
                 let m = y / len;
                 (p.a * xi) * omega
                     + m * (coefficient * self.bond_micromodulus(i) * z.dot(&m) / ref_len)
             }
         }
+    }
+
+    /// Non-uniform deformation state z = Y − F ξ (Eq. 14), as (Y − ξ) − H ξ.
+    #[inline(always)]
+    fn z<const D: usize>(p: &CorrespondencePoint<D>, xi: &Vector<D>, y: &Vector<D>) -> Vector<D> {
+        (y - xi) - p.h * xi
     }
 
     /// The set-up check: with every bond intact, the shape tensor of each node that
@@ -221,20 +233,19 @@ impl<const D: usize> Material<D> for Correspondence {
         self.check_shape_tensors(body, bonds, quad, |_| true)
     }
 
-    /// K += ω ξ⊗ξ w and N += ω Y⊗ξ w, kept in `a` and `f` until `finish_point`.
+    /// K += ω ξ⊗ξ w and N += ω η⊗ξ w (η = Y − ξ), kept in `a` and `h` until `finish_point`.
     #[inline(always)]
     fn accumulate(&self, i: usize, acc: &mut Self::Point, b: &BondGeom<D>) {
         let w = self.omega(i, b.ref_len) * b.weight();
         let xt = b.xi.transpose();
         acc.a += (b.xi * w) * xt;
-        acc.f += (b.y * w) * xt;
+        acc.h += ((b.y - b.xi) * w) * xt;
     }
 
     fn finish_point(&self, i: usize, acc: Self::Point) -> Self::Point {
-        let (k, n) = (acc.a, acc.f);
+        let (k, n) = (acc.a, acc.h);
         let detached = CorrespondencePoint {
             detached: true,
-            f: SMatrix::identity(),
             ..Default::default()
         };
         if Self::singular(&k) {
@@ -243,12 +254,13 @@ impl<const D: usize> Material<D> for Correspondence {
         let Some(k_inv) = inverse(&k) else {
             return detached;
         };
-        let f = n * k_inv;
+        let h = n * k_inv;
+        let f = h + SMatrix::<f64, D, D>::identity();
         let j = determinant(&f);
         let Some(f_inv) = inverse(&f) else {
             return detached;
         };
-        let sigma = self.stress(&Self::strain(&f));
+        let sigma = self.stress(&Self::strain(&h));
         let p = sigma * f_inv.transpose() * j;
         let c1 = match self.control {
             ZeroEnergyControl::Wan { coefficient } => {
@@ -261,7 +273,7 @@ impl<const D: usize> Material<D> for Correspondence {
         let _ = i;
         CorrespondencePoint {
             a: p * k_inv,
-            f,
+            h,
             c1,
             detached: false,
         }
@@ -299,7 +311,7 @@ impl<const D: usize> Material<D> for Correspondence {
         if p.detached {
             return 0.0;
         }
-        let z = b.y - p.f * b.xi;
+        let z = Self::z(p, &b.xi, &b.y);
         match self.control {
             ZeroEnergyControl::None => 0.0,
             ZeroEnergyControl::Wan { .. } => {
@@ -317,7 +329,7 @@ impl<const D: usize> Material<D> for Correspondence {
         if p.detached {
             return 0.0;
         }
-        let e = Self::strain(&p.f);
+        let e = Self::strain(&p.h);
         0.5 * self.stress(&e).dot(&e) + bond_sum
     }
 
