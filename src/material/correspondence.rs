@@ -4,10 +4,18 @@
 //! and plane strain.
 //!
 //! Per node: shape tensor K = Σ ω ξ⊗ξ w (Eq. 7), deformation gradient F = (Σ ω Y⊗ξ w) K⁻¹
-//! (Eq. 6), Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), stress σ = C:E (Eq. 10), first
-//! Piola–Kirchhoff stress P = det(F) σ F⁻ᵀ (Eq. 9; the paper prints F⁻¹, an erratum: the
-//! Piola transform of a Cauchy stress is J σ F⁻ᵀ), and force state T⟨ξ⟩ = ω P K⁻¹ ξ (Eq. 8);
-//! w = φ μ V_j is the bond's quadrature weight, μ its intact fraction.
+//! (Eq. 6), Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), stress C:E (Eq. 10), first
+//! Piola–Kirchhoff stress P (Eq. 9), and force state T⟨ξ⟩ = ω P K⁻¹ ξ (Eq. 8); w = φ μ V_j is
+//! the bond's quadrature weight, μ its intact fraction.
+//!
+//! Stress. C:E, linear in the Green–Lagrange strain, is a material (second Piola–Kirchhoff)
+//! stress S; the Cauchy stress is its push-forward σ = J⁻¹ F S Fᵀ, and Eq. 9, P = J σ F⁻ᵀ
+//! (the paper prints F⁻¹, an erratum), gives P = F S: the St. Venant–Kirchhoff solid, whose
+//! energy density is exactly W = ½ E:C:E. Taking C:E itself as the Cauchy stress,
+//! P = J (C:E) F⁻ᵀ, agrees to first order in the strain but is not objective (a rigid rotation
+//! Q of a strained state gives J (C:E) Q F⁻ᵀ instead of Q P: 41 % off at 0.3 rad) and has no
+//! energy (f ≠ −∂W/∂u at O(|E|)); `tests/correspondence.rs` and `tests/conformance.rs` check
+//! both properties.
 //!
 //! A node whose shape tensor is singular or ill-conditioned (fewer than D independent intact
 //! bonds) or whose F is singular has no force state of its own ("detached", as in Peridigm):
@@ -131,7 +139,7 @@ impl Correspondence {
         }
     }
 
-    /// σ = λ tr(E) I + 2μ E (Eq. 10).
+    /// S = C:E = λ tr(E) I + 2μ E (Eq. 10).
     fn stress<const D: usize>(&self, e: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
         SMatrix::<f64, D, D>::identity() * (self.lambda * e.trace()) + e * (2.0 * self.mu)
     }
@@ -257,11 +265,11 @@ impl<const D: usize> Material<D> for Correspondence {
         let h = n * k_inv;
         let f = h + SMatrix::<f64, D, D>::identity();
         let j = determinant(&f);
-        let Some(f_inv) = inverse(&f) else {
+        if j == 0.0 || !j.is_finite() {
             return detached;
-        };
-        let sigma = self.stress(&Self::strain(&h));
-        let p = sigma * f_inv.transpose() * j;
+        }
+        // P = J σ F⁻ᵀ with σ = J⁻¹ F S Fᵀ, S = C:E: P = F S (see the module notes).
+        let p = f * self.stress(&Self::strain(&h));
         let c1 = match self.control {
             ZeroEnergyControl::Wan { coefficient } => {
                 (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
@@ -324,7 +332,8 @@ impl<const D: usize> Material<D> for Correspondence {
         }
     }
 
-    /// W = ½ σ:E of the node's F, plus the stabilisation energy of its bonds.
+    /// W = ½ E:C:E of the node's F (exact for P = F C:E), plus the stabilisation energy of its
+    /// bonds.
     fn point_energy(&self, _i: usize, p: &Self::Point, bond_sum: f64) -> f64 {
         if p.detached {
             return 0.0;
