@@ -1,12 +1,14 @@
 //! Conformance suite run over every model: zero force in the reference state, momentum
 //! balance, rigid-motion invariance, and forces equal to minus the energy gradient.
-//! Adding a model means adding a line to `for_every_model!`.
+//! Adding a model means adding a line to `for_every_model!`; a model whose forces have no
+//! exact potential says so on its line (`no_potential`, see the macro).
 
 mod common;
 
 use common::*;
 use peridyn::bonds::PartialVolume;
 use peridyn::damage::CriticalStretch;
+use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
@@ -47,7 +49,7 @@ fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
     sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
 }
 
-fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) {
+fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M, potential: bool) {
     // Reference state: exactly zero force.
     let mut sim = sim_of::<D, M>(material.clone());
     assert_eq!(max_force(&sim), 0.0, "{name}: force in the reference state");
@@ -68,7 +70,9 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
         "{name}: net internal force {total:?} (scale {per_node})"
     );
 
-    // Energy–force consistency: V_i f_i = −∂E/∂u_i by central differences.
+    // Energy–force consistency: V_i f_i = −∂E/∂u_i by central differences (measured for every
+    // model, asserted for those with a potential).
+    let mut mismatch: f64 = 0.0;
     for (i, k) in [(sim.body.len() / 2, 0), (3, D - 1), (sim.body.len() - 5, 1)] {
         let fd = {
             let h = 1e-9;
@@ -89,8 +93,10 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
             -(ep - em) / (2.0 * h)
         };
         let f = sim.state.force[i][k] * sim.body.volumes[i];
+        let err = (fd - f).abs() / per_node.max(f.abs());
+        mismatch = mismatch.max(err);
         assert!(
-            (fd - f).abs() < 1e-4 * per_node.max(f.abs()),
+            !potential || err < 1e-4,
             "{name}: node {i} comp {k}: −dE/du = {fd}, V f = {f}"
         );
     }
@@ -109,14 +115,33 @@ fn check_model<const D: usize, M: Material<D> + Clone>(name: &str, material: M) 
         rigid < 1e-6 * scale,
         "{name}: force under rigid motion {rigid} vs {scale} under strain {amp}"
     );
-    println!("{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e})");
+    println!(
+        "{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e}, |V f + dE/du| / scale {mismatch:.1e}{})",
+        if potential { "" } else { ", not asserted: no potential" }
+    );
 }
 
+/// Wan et al.'s zero-energy-mode control with the paper's coefficient.
+const WAN: ZeroEnergyControl = ZeroEnergyControl::Wan { coefficient: 1.0 };
+
+/// Whether a model's line declares an exact potential: every flag must be known.
+fn has_potential(flags: &[&str]) -> bool {
+    for flag in flags {
+        assert_eq!(*flag, "no_potential", "unknown conformance flag {flag}");
+    }
+    flags.is_empty()
+}
+
+/// One line per model: `name => dimension, material[, flags];`. The only flag,
+/// `no_potential`, is for a model whose forces are not the gradient of any energy (Silling's
+/// hourglass force, which acts along the deformed bond only and ignores how z = Y − Fξ of the
+/// other bonds changes with the node's displacement): the check f = −∂E/∂u is then measured
+/// and printed but not asserted; every other check still applies.
 macro_rules! for_every_model {
-    ($($name:literal => $d:literal, $material:expr;)*) => {
+    ($($name:literal => $d:literal, $material:expr $(, $flag:ident)*;)*) => {
         #[test]
         fn every_model_conforms() {
-            $( check_model::<$d, _>($name, $material); )*
+            $( check_model::<$d, _>($name, $material, has_potential(&[$(stringify!($flag)),*])); )*
         }
     };
 }
@@ -128,4 +153,9 @@ for_every_model! {
     "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3);
     "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3);
     "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3);
+    "correspondence plane stress wan" => 2, correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, WAN);
+    "correspondence plane strain wan" => 2, correspondence(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3, WAN);
+    "correspondence 3D wan" => 3, correspondence(Dimensionality::ThreeD, 70e9, 0.2, 3e-3, WAN);
+    "correspondence plane stress no control" => 2, correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, ZeroEnergyControl::None);
+    "correspondence plane stress silling" => 2, correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, ZeroEnergyControl::Silling { coefficient: 1.0 }), no_potential;
 }
