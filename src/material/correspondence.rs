@@ -1,7 +1,7 @@
 //! Non-ordinary state-based correspondence material (Silling et al. 2007; seed 004,
 //! Eqs. 6–11) with zero-energy-mode control after Wan et al. 2019 (seed 004, Eqs. 12–15) or
-//! Silling's bond-based hourglass force (Silling 2017, as in Peridigm), in 3D, plane stress
-//! and plane strain.
+//! the bond-based hourglass force of Peridigm's "hourglass coefficient" (named `Silling`
+//! here), in 3D, plane stress and plane strain.
 //!
 //! Per node: shape tensor K = Σ ω ξ⊗ξ w (Eq. 7), deformation gradient F = (Σ ω Y⊗ξ w) K⁻¹
 //! (Eq. 6), Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), stress C:E (Eq. 10), first
@@ -37,9 +37,16 @@ pub enum ZeroEnergyControl {
     /// Wan et al. 2019 (seed 004, Eqs. 12–15): T^S = G ω C1 z, z = Y − Fξ, C1 = C : K⁻¹ with
     /// (C1)_ab = Σ_cd C_abcd (K⁻¹)_cd; G = 1 is the paper's form.
     Wan { coefficient: f64 },
-    /// Silling 2017 (Peridigm's "hourglass coefficient" G): a bond force
-    /// G c (z·M)/|ξ| M along the deformed bond, c = the bond-based micromodulus of the
-    /// material's bulk modulus (18K/(πδ⁴) in 3D).
+    /// Peridigm's hourglass force (its `computeHourglassForce`, "hourglass coefficient" G): a
+    /// bond force G c (z·M)/|ξ| M along the deformed bond, c = the bond-based micromodulus of
+    /// the material's bulk modulus (18K/(πδ⁴) in 3D).
+    ///
+    /// This is not the stabilisation of Silling 2017 (CMAME 322:42–57; Peridigm's
+    /// `computeCorrespondenceStabilityForce`), G c' ω z with the full vector z, which derives
+    /// from the energy ½ G c' Σ ω |z|² w. The projected force here has no potential and a
+    /// non-symmetric stiffness: a free, unloaded plate gains energy exponentially under it
+    /// (flutter; `tests/correspondence.rs`, ignored test
+    /// `silling_control_keeps_the_energy_of_a_rough_field`).
     Silling { coefficient: f64 },
 }
 
