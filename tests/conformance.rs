@@ -8,6 +8,7 @@ use common::*;
 use peridyn::body::Body;
 use peridyn::bonds::PartialVolume;
 use peridyn::damage::CriticalStretch;
+use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::mixed::BlockMaterial;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Mixed};
 use peridyn::math::Vector;
@@ -167,6 +168,9 @@ fn check_sim<const D: usize, M: Material<D>>(name: &str, mut sim: Simulation<D, 
     println!("{name}: ok (strain-force scale {scale:.3e}, rigid-motion force {rigid:.3e})");
 }
 
+/// Wan et al.'s zero-energy-mode control with the paper's coefficient.
+const WAN: ZeroEnergyControl = ZeroEnergyControl::Wan { coefficient: 1.0 };
+
 /// Models on the uniform lattice, then models made for their body (a `Layout` and a closure
 /// of the body).
 macro_rules! for_every_model {
@@ -190,6 +194,12 @@ for_every_model! {
     "lps plane stress" => 2, lps(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3);
     "lps plane strain" => 2, lps(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3);
     "lps 3D" => 3, lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3);
+    "correspondence plane stress wan" => 2, correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, WAN);
+    "correspondence plane strain wan" => 2, correspondence(Dimensionality::PlaneStrain, 70e9, 0.45, 3e-3, WAN);
+    "correspondence 3D wan" => 3, correspondence(Dimensionality::ThreeD, 70e9, 0.2, 3e-3, WAN);
+    "correspondence plane stress no control" => 2, correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, ZeroEnergyControl::None);
+    "correspondence plane stress silling" => 2, correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, ZeroEnergyControl::Silling { coefficient: 1.0 });
+    "correspondence 3D silling" => 3, correspondence(Dimensionality::ThreeD, 70e9, 0.2, 3e-3, ZeroEnergyControl::Silling { coefficient: 1.0 });
     made for the body:
     "pmb dual horizon 2:1 plane stress" => 2, TwoHorizons, |b: &Body<2>| {
         pmb(Dimensionality::PlaneStress, 70e9, 3e-3, MicromodulusProfile::Constant).with_horizons(&b.horizons)

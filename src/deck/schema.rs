@@ -243,8 +243,12 @@ pub enum ZeroEnergyDeck {
         #[serde(default = "default_one")]
         coefficient: f64,
     },
-    /// Silling's bond-based hourglass force (Peridigm's "hourglass coefficient").
-    Silling { coefficient: f64 },
+    /// Silling 2017: T^S = G (c/δ) ω z, an energy-consistent penalty on the non-uniform
+    /// deformation (see `material::correspondence`).
+    Silling {
+        #[serde(default = "default_one")]
+        coefficient: f64,
+    },
     /// No control.
     None {},
 }

@@ -1,13 +1,20 @@
 //! Non-ordinary state-based correspondence material (Silling et al. 2007; seed 004,
 //! Eqs. 6–11) with zero-energy-mode control after Wan et al. 2019 (seed 004, Eqs. 12–15) or
-//! Silling's bond-based hourglass force (Silling 2017, as in Peridigm), in 3D, plane stress
-//! and plane strain.
+//! Silling 2017 (CMAME 322:42–57), in 3D, plane stress and plane strain.
 //!
 //! Per node: shape tensor K = Σ ω ξ⊗ξ w (Eq. 7), deformation gradient F = (Σ ω Y⊗ξ w) K⁻¹
-//! (Eq. 6), Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), stress σ = C:E (Eq. 10), first
-//! Piola–Kirchhoff stress P = det(F) σ F⁻ᵀ (Eq. 9; the paper prints F⁻¹, an erratum: the
-//! Piola transform of a Cauchy stress is J σ F⁻ᵀ), and force state T⟨ξ⟩ = ω P K⁻¹ ξ (Eq. 8);
-//! w = φ μ V_j is the bond's quadrature weight, μ its intact fraction.
+//! (Eq. 6), Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), stress C:E (Eq. 10), first
+//! Piola–Kirchhoff stress P (Eq. 9), and force state T⟨ξ⟩ = ω P K⁻¹ ξ (Eq. 8); w = φ μ V_j is
+//! the bond's quadrature weight, μ its intact fraction.
+//!
+//! Stress. C:E, linear in the Green–Lagrange strain, is a material (second Piola–Kirchhoff)
+//! stress S; the Cauchy stress is its push-forward σ = J⁻¹ F S Fᵀ, and Eq. 9, P = J σ F⁻ᵀ
+//! (the paper prints F⁻¹, an erratum), gives P = F S: the St. Venant–Kirchhoff solid, whose
+//! energy density is exactly W = ½ E:C:E. Taking C:E itself as the Cauchy stress,
+//! P = J (C:E) F⁻ᵀ, agrees to first order in the strain but is not objective (a rigid rotation
+//! Q of a strained state gives J (C:E) Q F⁻ᵀ instead of Q P: 41 % off at 0.3 rad) and has no
+//! energy (f ≠ −∂W/∂u at O(|E|)); `tests/correspondence.rs` and `tests/conformance.rs` check
+//! both properties.
 //!
 //! A node whose shape tensor is singular or ill-conditioned (fewer than D independent intact
 //! bonds) or whose F is singular has no force state of its own ("detached", as in Peridigm):
@@ -29,21 +36,34 @@ pub enum ZeroEnergyControl {
     /// Wan et al. 2019 (seed 004, Eqs. 12–15): T^S = G ω C1 z, z = Y − Fξ, C1 = C : K⁻¹ with
     /// (C1)_ab = Σ_cd C_abcd (K⁻¹)_cd; G = 1 is the paper's form.
     Wan { coefficient: f64 },
-    /// Silling 2017 (Peridigm's "hourglass coefficient" G): a bond force
-    /// G c (z·M)/|ξ| M along the deformed bond, c = the bond-based micromodulus of the
-    /// material's bulk modulus (18K/(πδ⁴) in 3D).
+    /// Silling 2017 (CMAME 322:42–57): T^S = G c_s ω z with the scalar stiffness
+    /// c_s = c/δ_i, c the bond-based micromodulus of the material's bulk modulus (18κ/(πδ⁴) in
+    /// 3D, 12κ/(πδ³t) in 2D), so that G = 1 resists a non-uniform displacement of a bond at the
+    /// horizon's edge as a PMB bond of the same bulk modulus resists its extension. It is
+    /// Wan's form with C1 replaced by c_s I, derives from the energy ½ G c_s Σ ω |z|² w
+    /// (because Σ ω z⊗ξ w = 0 by the definition of F) and is isotropic by construction.
+    ///
+    /// The older bond-projected hourglass force G c (z·M)/|ξ| M (M the deformed bond
+    /// direction) is not offered: it has no potential, and its non-symmetric stiffness lets a
+    /// free, unloaded plate gain energy exponentially (flutter: E/E0 ≈ 25 after 8000 stable
+    /// steps, measured).
     Silling { coefficient: f64 },
 }
 
 /// Ratio det K / (tr K / D)^D below which a shape tensor counts as singular.
 const SINGULAR: f64 = 1e-8;
 
-/// Point state: during the pre-pass the sums K and Σ ω Y⊗ξ w; after it, A = P K⁻¹, F and the
-/// stabilisation tensor C1 (zero for a detached node).
+/// Point state: during the pre-pass the sums K and Σ ω η⊗ξ w (η = Y − ξ); after it,
+/// A = P K⁻¹, the displacement gradient H = F − I and the stabilisation tensor C1 (zero for a
+/// detached node).
+///
+/// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
+/// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
+/// relative round-off of ε_machine/|H| on small strains.
 #[derive(Debug, Clone, Copy)]
 pub struct CorrespondencePoint<const D: usize> {
     pub a: SMatrix<f64, D, D>,
-    pub f: SMatrix<f64, D, D>,
+    pub h: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
     pub detached: bool,
 }
@@ -52,7 +72,7 @@ impl<const D: usize> Default for CorrespondencePoint<D> {
     fn default() -> Self {
         CorrespondencePoint {
             a: SMatrix::zeros(),
-            f: SMatrix::zeros(),
+            h: SMatrix::zeros(),
             c1: SMatrix::zeros(),
             detached: false,
         }
@@ -126,14 +146,15 @@ impl Correspondence {
         }
     }
 
-    /// σ = λ tr(E) I + 2μ E (Eq. 10).
+    /// S = C:E = λ tr(E) I + 2μ E (Eq. 10).
     fn stress<const D: usize>(&self, e: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
         SMatrix::<f64, D, D>::identity() * (self.lambda * e.trace()) + e * (2.0 * self.mu)
     }
 
-    /// Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11).
-    fn strain<const D: usize>(f: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
-        (f.transpose() * f - SMatrix::<f64, D, D>::identity()) * 0.5
+    /// Green–Lagrange strain E = ½(FᵀF − I) (Eq. 11), written with H = F − I as
+    /// ½(H + Hᵀ + HᵀH) so that no I cancels.
+    fn strain<const D: usize>(h: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+        (h + h.transpose() + h.transpose() * h) * 0.5
     }
 
     /// Whether a shape tensor is too close to singular to invert.
@@ -143,8 +164,8 @@ impl Correspondence {
     }
 
     /// Node i's force state on a bond seen from i (ξ, Y), times ω (the weights φ μ are
-    /// applied by the caller): ω (A ξ + G C1 z) for Wan's control, ω A ξ + G c (z·M)/|ξ| M for
-    /// Silling's, z = Y − F ξ.
+    /// applied by the caller): ω (A ξ + C1 z), z = Y − F ξ = (Y − ξ) − H ξ, with C1 the
+    /// node's stabilisation tensor (Wan's G C:K⁻¹ or Silling's G c_s I; zero without control).
     #[inline(always)]
     fn half<const D: usize>(
         &self,
@@ -153,7 +174,6 @@ impl Correspondence {
         xi: &Vector<D>,
         y: &Vector<D>,
         ref_len: f64,
-        len: f64,
     ) -> Vector<D> {
         if p.detached {
             return Vector::zeros();
@@ -161,14 +181,14 @@ impl Correspondence {
         let omega = self.omega(i, ref_len);
         match self.control {
             ZeroEnergyControl::None => (p.a * xi) * omega,
-            ZeroEnergyControl::Wan { .. } => (p.a * xi + p.c1 * (y - p.f * xi)) * omega,
-            ZeroEnergyControl::Silling { coefficient } => {
-                let z = y - p.f * xi;
-                let m = y / len;
-                (p.a * xi) * omega
-                    + m * (coefficient * self.bond_micromodulus(i) * z.dot(&m) / ref_len)
-            }
+            _ => (p.a * xi + p.c1 * Self::z(p, xi, y)) * omega,
         }
+    }
+
+    /// Non-uniform deformation state z = Y − F ξ (Eq. 14), as (Y − ξ) − H ξ.
+    #[inline(always)]
+    fn z<const D: usize>(p: &CorrespondencePoint<D>, xi: &Vector<D>, y: &Vector<D>) -> Vector<D> {
+        (y - xi) - p.h * xi
     }
 
     /// The set-up check: with every bond intact, the shape tensor of each node that
@@ -221,20 +241,19 @@ impl<const D: usize> Material<D> for Correspondence {
         self.check_shape_tensors(body, bonds, quad, |_| true)
     }
 
-    /// K += ω ξ⊗ξ w and N += ω Y⊗ξ w, kept in `a` and `f` until `finish_point`.
+    /// K += ω ξ⊗ξ w and N += ω η⊗ξ w (η = Y − ξ), kept in `a` and `h` until `finish_point`.
     #[inline(always)]
     fn accumulate(&self, i: usize, acc: &mut Self::Point, b: &BondGeom<D>) {
         let w = self.omega(i, b.ref_len) * b.weight();
         let xt = b.xi.transpose();
         acc.a += (b.xi * w) * xt;
-        acc.f += (b.y * w) * xt;
+        acc.h += ((b.y - b.xi) * w) * xt;
     }
 
     fn finish_point(&self, i: usize, acc: Self::Point) -> Self::Point {
-        let (k, n) = (acc.a, acc.f);
+        let (k, n) = (acc.a, acc.h);
         let detached = CorrespondencePoint {
             detached: true,
-            f: SMatrix::identity(),
             ..Default::default()
         };
         if Self::singular(&k) {
@@ -243,25 +262,29 @@ impl<const D: usize> Material<D> for Correspondence {
         let Some(k_inv) = inverse(&k) else {
             return detached;
         };
-        let f = n * k_inv;
+        let h = n * k_inv;
+        let f = h + SMatrix::<f64, D, D>::identity();
         let j = determinant(&f);
-        let Some(f_inv) = inverse(&f) else {
+        if j == 0.0 || !j.is_finite() {
             return detached;
-        };
-        let sigma = self.stress(&Self::strain(&f));
-        let p = sigma * f_inv.transpose() * j;
+        }
+        // P = J σ F⁻ᵀ with σ = J⁻¹ F S Fᵀ, S = C:E: P = F S (see the module notes).
+        let p = f * self.stress(&Self::strain(&h));
         let c1 = match self.control {
             ZeroEnergyControl::Wan { coefficient } => {
                 (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
                     + k_inv * (2.0 * self.mu))
                     * coefficient
             }
-            _ => SMatrix::zeros(),
+            ZeroEnergyControl::Silling { coefficient } => {
+                SMatrix::<f64, D, D>::identity()
+                    * (coefficient * self.bond_micromodulus(i) / self.horizons.at(i))
+            }
+            ZeroEnergyControl::None => SMatrix::zeros(),
         };
-        let _ = i;
         CorrespondencePoint {
             a: p * k_inv,
-            f,
+            h,
             c1,
             detached: false,
         }
@@ -273,7 +296,7 @@ impl<const D: usize> Material<D> for Correspondence {
 
     #[inline(always)]
     fn force_state_vector(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> Vector<D> {
-        self.half(i, p, &b.xi, &b.y, b.ref_len, b.len)
+        self.half(i, p, &b.xi, &b.y, b.ref_len)
     }
 
     /// T_i⟨ξ⟩ φ_ij μ_ij − T_j⟨−ξ⟩ φ_ji μ_ji, each half evaluated from its own node's side, so
@@ -288,36 +311,27 @@ impl<const D: usize> Material<D> for Correspondence {
         pj: &Self::Point,
     ) -> Vector<D> {
         let (nxi, ny) = (-b.xi, -b.y);
-        self.half(i, pi, &b.xi, &b.y, b.ref_len, b.len) * (b.phi_ij * b.mu_ij)
-            - self.half(j, pj, &nxi, &ny, b.ref_len, b.len) * (b.phi_ji * b.mu_ji)
+        self.half(i, pi, &b.xi, &b.y, b.ref_len) * (b.phi_ij * b.mu_ij)
+            - self.half(j, pj, &nxi, &ny, b.ref_len) * (b.phi_ji * b.mu_ji)
     }
 
-    /// The stabilisation energy of the bond: ½ G ω z·C1 z w (Wan; its gradient is exactly
-    /// T^S because Σ ω z⊗ξ w = 0 by the definition of F), ½ G c (z·M)²/|ξ| w (Silling's, an
-    /// approximation: that force has no exact potential).
+    /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S
+    /// because Σ ω z⊗ξ w = 0 by the definition of F (Wan's and Silling's forms alike).
     fn bond_energy(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
-        if p.detached {
+        if p.detached || self.control == ZeroEnergyControl::None {
             return 0.0;
         }
-        let z = b.y - p.f * b.xi;
-        match self.control {
-            ZeroEnergyControl::None => 0.0,
-            ZeroEnergyControl::Wan { .. } => {
-                0.5 * self.omega(i, b.ref_len) * z.dot(&(p.c1 * z)) * b.weight()
-            }
-            ZeroEnergyControl::Silling { coefficient } => {
-                let zm = z.dot(&b.y) / b.len;
-                0.5 * coefficient * self.bond_micromodulus(i) * zm * zm / b.ref_len * b.weight()
-            }
-        }
+        let z = Self::z(p, &b.xi, &b.y);
+        0.5 * self.omega(i, b.ref_len) * z.dot(&(p.c1 * z)) * b.weight()
     }
 
-    /// W = ½ σ:E of the node's F, plus the stabilisation energy of its bonds.
+    /// W = ½ E:C:E of the node's F (exact for P = F C:E), plus the stabilisation energy of its
+    /// bonds.
     fn point_energy(&self, _i: usize, p: &Self::Point, bond_sum: f64) -> f64 {
         if p.detached {
             return 0.0;
         }
-        let e = Self::strain(&p.f);
+        let e = Self::strain(&p.h);
         0.5 * self.stress(&e).dot(&e) + bond_sum
     }
 

@@ -7,8 +7,9 @@ use peridyn::damage::Damage;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::Loading;
+use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{
-    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+    Correspondence, Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
 };
 use peridyn::solver::Simulation;
 
@@ -58,6 +59,28 @@ pub fn lps(dim: Dimensionality, e: f64, nu: f64, horizon: f64) -> Lps {
             dimensionality: dim,
         },
         Influence::Constant,
+        horizon,
+        2000.0,
+        THICKNESS,
+    )
+}
+
+/// Correspondence material (constant influence function, ρ = 2000 kg/m³).
+pub fn correspondence(
+    dim: Dimensionality,
+    e: f64,
+    nu: f64,
+    horizon: f64,
+    control: ZeroEnergyControl,
+) -> Correspondence {
+    Correspondence::new(
+        Elasticity {
+            youngs_modulus: e,
+            poisson_ratio: nu,
+            dimensionality: dim,
+        },
+        Influence::Constant,
+        control,
         horizon,
         2000.0,
         THICKNESS,
