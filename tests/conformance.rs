@@ -207,6 +207,18 @@ for_every_model! {
     "pmb dual horizon 2:1 3D conical" => 3, TwoHorizons, |b: &Body<3>| {
         pmb(Dimensionality::ThreeD, 70e9, 3e-3, MicromodulusProfile::Conical).with_horizons(&b.horizons)
     };
+    "lps dual horizon 2:1 plane strain" => 2, TwoHorizons, |b: &Body<2>| {
+        lps(Dimensionality::PlaneStrain, 70e9, 0.3, 3e-3).with_horizons(&b.horizons)
+    };
+    "lps dual horizon 2:1 3D" => 3, TwoHorizons, |b: &Body<3>| {
+        lps(Dimensionality::ThreeD, 70e9, 0.2, 3e-3).with_horizons(&b.horizons)
+    };
+    "correspondence dual horizon 2:1 plane stress" => 2, TwoHorizons, |b: &Body<2>| {
+        correspondence(Dimensionality::PlaneStress, 70e9, 0.3, 3e-3, WAN).with_horizons(&b.horizons)
+    };
+    "correspondence dual horizon 2:1 3D" => 3, TwoHorizons, |b: &Body<3>| {
+        correspondence(Dimensionality::ThreeD, 70e9, 0.2, 3e-3, WAN).with_horizons(&b.horizons)
+    };
     "mixed pmb | lps plane stress" => 2, OneHorizon, |b: &Body<2>| pmb_lps(b, Dimensionality::PlaneStress);
     "mixed pmb | lps 3D" => 3, OneHorizon, |b: &Body<3>| pmb_lps(b, Dimensionality::ThreeD);
 }
