@@ -198,3 +198,51 @@ fn initial_velocity_field_is_value_plus_gradient_and_yields_to_constraints() {
         assert_eq!(sim.state.v[i][0], vx, "v_x at node {i}");
     }
 }
+
+/// A 3D LPS deck with a fracture energy, at deck version `version`.
+fn lps_deck(version: u32) -> String {
+    format!(
+        r#"
+version = {version}
+dimension = 3
+[discretization]
+type = "lattice"
+shape = {{ type = "box", min = [0.0, 0.0, 0.0], max = [0.012, 0.012, 0.012] }}
+spacing = 1e-3
+horizon_ratio = 3.0
+[material]
+type = "lps"
+density = 2500.0
+youngs_modulus = 70e9
+poisson_ratio = 0.2
+fracture_energy = 100.0
+[solver]
+type = "explicit"
+steps = 1
+"#
+    )
+}
+
+/// Decks keep their results across versions: a version-1 LPS deck keeps the bond-based
+/// equivalent s0 = √(5G0/(9Kδ)) it always had (Silling & Askari 2005), and version 2 gets
+/// the exact separation calibration, which differs (by about 11 % in 3D).
+#[test]
+fn version_one_lps_deck_keeps_its_critical_stretch() {
+    let s0 = |version| {
+        let ld = LoadedDeck::from_str(&lps_deck(version), Path::new("lps.toml")).unwrap();
+        check(&ld, Some(1)).unwrap().critical_stretch
+    };
+    let (e, nu, g0, delta): (f64, f64, f64, f64) = (70e9, 0.2, 100.0, 3e-3);
+    let k = e / (3.0 * (1.0 - 2.0 * nu));
+    let bond_based = (5.0 * g0 / (9.0 * k * delta)).sqrt();
+    let (v1, v2) = (s0(1), s0(2));
+    println!("s0: version 1 {v1:.6e} (formula {bond_based:.6e}), version 2 {v2:.6e}");
+    assert!(
+        (v1 / bond_based - 1.0).abs() < 1e-12,
+        "version 1: {v1} vs {bond_based}"
+    );
+    assert!(
+        (v2 / v1 - 1.0).abs() > 0.03,
+        "version 2 should be recalibrated: {v2} vs {v1}"
+    );
+}
