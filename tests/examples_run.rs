@@ -1,0 +1,131 @@
+//! The shipped example decks run through the same path as `peridyn run` (`run::run`), each
+//! cut short to a few hundred steps at most, and give sensible physics: finite energies, the
+//! grips' work stored in the body while nothing breaks, damage growing where a deck is meant
+//! to crack, the porosity pre-broken, the dual-horizon pulse carried without loss.
+
+use peridyn::deck::schema::SolverDeck;
+use peridyn::deck::LoadedDeck;
+use peridyn::run::{run, RunOptions, RunSummary};
+use std::path::PathBuf;
+
+fn deck(name: &str) -> LoadedDeck {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name);
+    LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Runs `ld` for `steps` steps (all of them if `None`), writing no snapshots.
+fn run_steps(mut ld: LoadedDeck, steps: Option<u64>) -> RunSummary {
+    if let Some(n) = steps {
+        let SolverDeck::Explicit {
+            steps: s, end_time, ..
+        } = &mut ld.deck.solver;
+        *s = Some(n);
+        *end_time = None;
+    }
+    ld.deck.output.snapshots = 0;
+    ld.deck.output.png = false;
+    ld.deck.output.history_interval = 0;
+    let name = ld.file.file_stem().unwrap().to_string_lossy().to_string();
+    let out = std::env::temp_dir().join(format!("peridyn-example-{name}-{}", std::process::id()));
+    let summary = run(
+        &ld,
+        &RunOptions {
+            out_dir: out.clone(),
+            threads: Some(2),
+            quiet: true,
+        },
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    std::fs::remove_dir_all(&out).ok();
+    let (k, s, w) = (
+        summary.kinetic_energy,
+        summary.strain_energy,
+        summary.external_work,
+    );
+    assert!(
+        k.is_finite() && s.is_finite() && w.is_finite() && k >= 0.0 && s >= 0.0,
+        "{name}: energies kinetic {k}, strain {s}, work {w}"
+    );
+    summary
+}
+
+/// Before anything breaks, the grips' work is the body's kinetic plus strain energy.
+fn assert_work_stored(name: &str, r: &RunSummary, tolerance: f64) {
+    let stored = r.kinetic_energy + r.strain_energy;
+    assert!(r.external_work > 0.0, "{name}: no work done on the body");
+    assert!(
+        (stored / r.external_work - 1.0).abs() < tolerance,
+        "{name}: stored {stored} J of {} J work",
+        r.external_work
+    );
+}
+
+#[test]
+fn seed002_lps_energy_loads_elastically_at_first() {
+    let r = run_steps(deck("seed002_pmma_lps_energy.toml"), Some(60));
+    assert_eq!(r.broken_bonds, 0, "no bond should break in the first 3 µs");
+    assert_work_stored("seed002", &r, 0.02);
+}
+
+#[test]
+fn seed004_correspondence_loads_elastically_at_first() {
+    let r = run_steps(
+        deck("seed004_pmma_hole_notch_correspondence.toml"),
+        Some(60),
+    );
+    assert_eq!(r.broken_bonds, 0, "no bond should break in the first 60 µs");
+    assert_work_stored("seed004", &r, 0.02);
+}
+
+#[test]
+fn two_material_plate_cracks_from_the_notch() {
+    // The crack starts from the notch after ≈ 30 µs; 500 steps are 36 µs.
+    let r = run_steps(deck("two_material_plate.toml"), Some(500));
+    assert!(r.broken_bonds > 20, "broken bonds: {}", r.broken_bonds);
+    let dissipated = r.external_work - r.kinetic_energy - r.strain_energy;
+    assert!(
+        dissipated > 0.0 && dissipated < 0.2 * r.external_work,
+        "dissipated {dissipated} J of {} J",
+        r.external_work
+    );
+}
+
+#[test]
+fn bilinear_plate_softens_past_its_peak() {
+    // 2000 steps are 0.41 ms: past the peak load (≈ 0.2 ms), the cohesive zones at the hole
+    // soften and dissipate before any bond is fully broken (at sc).
+    let r = run_steps(deck("bilinear_softening.toml"), Some(2000));
+    let dissipated = r.external_work - r.kinetic_energy - r.strain_energy;
+    assert!(
+        dissipated > 0.2 * r.external_work,
+        "dissipated {dissipated} J of {} J",
+        r.external_work
+    );
+}
+
+#[test]
+fn trilinear_porous_plate_starts_with_its_porosity_broken() {
+    let ld = deck("trilinear_porous.toml");
+    let r = run_steps(ld, Some(1));
+    let porous = &r.report.materials[0];
+    let prebroken = porous.prebroken_bonds.expect("a porous material");
+    // φ = 1 % of the bonds.
+    let fraction = prebroken as f64 / r.report.bonds as f64;
+    assert!(
+        (fraction - 0.01).abs() < 0.002,
+        "pre-broken fraction {fraction}"
+    );
+}
+
+#[test]
+fn dual_horizon_pulse_keeps_its_energy() {
+    // The whole deck: no damage, no damping, so the energy the loaded end puts in stays.
+    let r = run_steps(deck("dual_horizon.toml"), None);
+    assert_eq!(r.broken_bonds, 0);
+    assert_work_stored("dual_horizon", &r, 0.01);
+    // A travelling pulse holds about as much kinetic as strain energy.
+    let ratio = r.kinetic_energy / r.strain_energy;
+    assert!((0.7..1.4).contains(&ratio), "kinetic/strain = {ratio}");
+}
