@@ -334,15 +334,32 @@ pub(crate) fn render_scalar_map(
         draw(root.draw(&frame(&plot_area)))?;
         draw(root.draw(&frame(&bar)))?;
 
-        // Title centred over the plot area.
-        let title_style = (font::FAMILY, lay.fs_title)
+        // Title centred over the plot area, its font shrunk until a long title fits the
+        // image (and then centred on the image).
+        let (image_w, _) = root.dim_in_pixel();
+        let room = image_w.saturating_sub(2 * lay.margin);
+        let mut fs = lay.fs_title;
+        let width = |fs: u32| {
+            root.estimate_text_size(style.title, &(font::FAMILY, fs).into_font().color(&BLACK))
+                .map(|(w, _)| w)
+                .unwrap_or(0)
+        };
+        while fs > 10 && width(fs) > room {
+            fs -= 1;
+        }
+        let centre = (plot_area.0.start + plot_area.0.end) / 2;
+        let half = (width(fs) / 2) as i32;
+        let centre =
+            if centre - half < lay.margin as i32 || centre + half > (image_w - lay.margin) as i32 {
+                image_w as i32 / 2
+            } else {
+                centre
+            };
+        let title_style = (font::FAMILY, fs)
             .into_font()
             .color(&BLACK)
             .pos(Pos::new(HPos::Center, VPos::Center));
-        let title_pos = (
-            (plot_area.0.start + plot_area.0.end) / 2,
-            (lay.margin + lay.title_h / 2) as i32 - 2,
-        );
+        let title_pos = (centre, (lay.margin + lay.title_h / 2) as i32 - 2);
         draw(root.draw(&Text::new(style.title, title_pos, title_style)))?;
 
         // Colour-bar ticks at vmin, midpoint and vmax.
