@@ -84,22 +84,6 @@ fn pmb_lps<const D: usize>(body: &Body<D>, dim: Dimensionality) -> Mixed {
     }
 }
 
-fn displace<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    f: impl Fn(usize, &Vector<D>) -> Vector<D>,
-) {
-    let body = sim.body.clone();
-    for i in 0..body.len() {
-        sim.state
-            .set_displacement(&body, i, f(i, &body.positions[i]));
-    }
-    sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
-}
-
-fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
-    sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
-}
-
 fn check_model<const D: usize, M: Material<D>>(name: &str, material: M) {
     check_sim(name, sim_of::<D, M>(material));
 }

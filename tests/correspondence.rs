@@ -45,19 +45,6 @@ fn elasticity(dim: Dimensionality, nu: f64) -> Elasticity {
     }
 }
 
-/// Sets every node's displacement to `f(x)` and evaluates the forces.
-fn displace<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    f: impl Fn(usize, &Vector<D>) -> Vector<D>,
-) {
-    let body = sim.body.clone();
-    for i in 0..body.len() {
-        sim.state
-            .set_displacement(&body, i, f(i, &body.positions[i]));
-    }
-    sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
-}
-
 // ---------------------------------------------------------------------------------------
 // a. Patch tests
 // ---------------------------------------------------------------------------------------

@@ -46,22 +46,6 @@ fn forced_per_node(p: &Pmb, n: usize) -> Pmb {
     q
 }
 
-fn displace<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    f: impl Fn(usize, &Vector<D>) -> Vector<D>,
-) {
-    let body = sim.body.clone();
-    for i in 0..body.len() {
-        sim.state
-            .set_displacement(&body, i, f(i, &body.positions[i]));
-    }
-    sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
-}
-
-fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
-    sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
-}
-
 /// Bitwise equality of two vector fields.
 fn same_bits<const D: usize>(a: &[Vector<D>], b: &[Vector<D>]) -> bool {
     a.len() == b.len()

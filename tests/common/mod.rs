@@ -11,6 +11,7 @@ use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{
     Correspondence, Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
 };
+use peridyn::math::Vector;
 use peridyn::solver::Simulation;
 
 pub const THICKNESS: f64 = 1e-3;
@@ -132,4 +133,22 @@ pub fn two_horizon_body<const D: usize>(
     }
     let bonds = build_bonds(&body, rule, &[]);
     (body, bonds)
+}
+
+/// Sets every node's displacement to `f(i, x)` and evaluates the forces.
+pub fn displace<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    f: impl Fn(usize, &Vector<D>) -> Vector<D>,
+) {
+    let body = sim.body.clone();
+    for i in 0..body.len() {
+        sim.state
+            .set_displacement(&body, i, f(i, &body.positions[i]));
+    }
+    sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
+}
+
+/// The largest nodal force density.
+pub fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
+    sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
 }
