@@ -271,6 +271,12 @@ pub fn run_benchmarks(
     threads: &[usize],
     only: &[String],
 ) -> Result<Vec<BenchResult>, String> {
+    if only.iter().any(|c| c == "list") {
+        for case in CASES {
+            println!("{case}");
+        }
+        return Ok(Vec::new());
+    }
     if let Some(bad) = only.iter().find(|c| !CASES.contains(&c.as_str())) {
         return Err(format!(
             "unknown benchmark case {bad:?}; cases: {}",
@@ -318,4 +324,17 @@ pub fn run_benchmarks(
         }
     }
     Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn list_names_the_cases_without_measuring() {
+        let listed = run_benchmarks(1000, 1, &[1], &["list".to_string()]).unwrap();
+        assert!(listed.is_empty());
+        let err = run_benchmarks(1000, 1, &[1], &["nope".to_string()]).unwrap_err();
+        assert!(err.contains("pmb-3d"), "{err}");
+    }
 }
