@@ -247,6 +247,7 @@ fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -
                 ],
                 law_of: of,
             };
+            let mixed = mixed.into_central().expect("PMB and LPS blocks");
             measure(name, model, mixed, laws.into(), steps, threads)
         }
         _ => {

@@ -219,7 +219,10 @@ fn check_dim<const D: usize>(ld: &LoadedDeck) -> Result<ModelReport, RunError> {
         MaterialChoice::Pmb(m) => prepare(ld, model, m, rest)?.1,
         MaterialChoice::Lps(m) => prepare(ld, model, m, rest)?.1,
         MaterialChoice::Correspondence(m) => prepare(ld, model, m, rest)?.1,
-        MaterialChoice::Mixed(m) => prepare(ld, model, m, rest)?.1,
+        MaterialChoice::Mixed(m) => match m.into_central() {
+            Ok(m) => prepare(ld, model, m, rest)?.1,
+            Err(m) => prepare(ld, model, m, rest)?.1,
+        },
     })
 }
 
@@ -239,7 +242,11 @@ fn run_dim<const D: usize>(ld: &LoadedDeck, opts: &RunOptions) -> Result<RunSumm
         MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, opts),
         MaterialChoice::Lps(m) => run_model(ld, model, m, rest, opts),
         MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, opts),
-        MaterialChoice::Mixed(m) => run_model(ld, model, m, rest, opts),
+        // PMB and LPS blocks only: the scalar path.
+        MaterialChoice::Mixed(m) => match m.into_central() {
+            Ok(m) => run_model(ld, model, m, rest, opts),
+            Err(m) => run_model(ld, model, m, rest, opts),
+        },
     }
 }
 

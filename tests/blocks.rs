@@ -193,7 +193,7 @@ fn run(text: &str, name: &str) -> Static {
         ($m:expr) => {{
             let (mut sim, report) = prepare(&ld, model, $m, rest).unwrap();
             if let Some(mixed) = (&sim.engine.material as &dyn std::any::Any)
-                .downcast_ref::<peridyn::material::Mixed>()
+                .downcast_ref::<peridyn::material::MixedCentral>()
             {
                 // Every node is in the block its position says.
                 for i in 0..sim.body.len() {
@@ -207,9 +207,10 @@ fn run(text: &str, name: &str) -> Static {
     match material {
         MaterialChoice::Pmb(m) => go!(m),
         MaterialChoice::Lps(m) => go!(m),
+        // As `run` does: PMB and LPS blocks take the central path.
         MaterialChoice::Mixed(m) => {
             assert_eq!(m.materials.len(), 2);
-            go!(m)
+            go!(m.into_central().expect("PMB and LPS blocks"))
         }
         MaterialChoice::Correspondence(_) => unreachable!(),
     }

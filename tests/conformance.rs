@@ -205,4 +205,10 @@ for_every_model! {
     };
     "mixed pmb | lps plane stress" => 2, OneHorizon, |b: &Body<2>| pmb_lps(b, Dimensionality::PlaneStress);
     "mixed pmb | lps 3D" => 3, OneHorizon, |b: &Body<3>| pmb_lps(b, Dimensionality::ThreeD);
+    "mixed central pmb | lps plane stress" => 2, OneHorizon, |b: &Body<2>| {
+        pmb_lps(b, Dimensionality::PlaneStress).into_central().unwrap()
+    };
+    "mixed central pmb | lps 3D" => 3, OneHorizon, |b: &Body<3>| {
+        pmb_lps(b, Dimensionality::ThreeD).into_central().unwrap()
+    };
 }

@@ -206,6 +206,16 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
         horizon: None,
     }];
     assert_deterministic(&ld, "two-materials");
+    // A correspondence block breaking on energy beside a softening PMB block: the vector
+    // mixed path with every kind of history.
+    ld.deck.material = pmma(
+        "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"bilinear\", tensile_strength = 60e6 }",
+    );
+    ld.deck.materials.insert(
+        "lps".into(),
+        pmma("type = \"correspondence\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ndamage = { type = \"critical_energy\" }"),
+    );
+    assert_deterministic(&ld, "softening-pmb-and-correspondence-energy");
     let mut ld = small_quickstart();
     ld.deck.blocks = vec![BlockDeck {
         id: 1,

@@ -210,7 +210,7 @@ impl Damage {
             Damage::CriticalStretch(_) => words::<CriticalStretch>(central),
             Damage::CriticalEnergy(_) => words::<CriticalEnergy>(central),
             Damage::Softening(_) => words::<Softening>(central),
-            Damage::Mixed(_) => words::<MixedDamage>(central),
+            Damage::Mixed(d) => d.history_words(central),
         }
     }
 
@@ -219,7 +219,8 @@ impl Damage {
     pub fn records_work(&self) -> bool {
         match self {
             Damage::CriticalStretch(_) | Damage::Softening(_) => false,
-            Damage::CriticalEnergy(_) | Damage::Mixed(_) => true,
+            Damage::CriticalEnergy(_) => true,
+            Damage::Mixed(d) => d.records_work(),
         }
     }
 

@@ -201,7 +201,24 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         body.mark_no_fail(&nodes);
     }
     let history = if materials.len() > 1 {
-        MixedDamage::HISTORY_VECTOR
+        let laws: Vec<_> = deck
+            .materials_in_use(&materials)
+            .map(|m| m.damage())
+            .collect();
+        crate::damage::mixed::history_words(
+            laws.iter().any(|d| {
+                matches!(
+                    d,
+                    DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. }
+                )
+            }),
+            laws.iter()
+                .any(|d| matches!(d, DamageDeck::CriticalEnergy { .. })),
+            // A body of central models only runs the central mixed form.
+            !deck
+                .materials_in_use(&materials)
+                .any(|m| matches!(m, MaterialDeck::Correspondence { .. })),
+        )
     } else {
         let m = deck.material_at(&materials[0]);
         damage_history_words(

@@ -13,6 +13,7 @@ pub mod influence;
 pub mod lps;
 pub mod lps_separation;
 pub mod mixed;
+pub mod mixed_central;
 pub mod pmb;
 pub mod simd;
 
@@ -21,6 +22,7 @@ pub use correspondence::Correspondence;
 pub use influence::Influence;
 pub use lps::Lps;
 pub use mixed::Mixed;
+pub use mixed_central::MixedCentral;
 pub use pmb::{MicromodulusProfile, Pmb};
 
 use crate::body::Body;

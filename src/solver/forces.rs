@@ -10,7 +10,10 @@ use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::damage::critical_stretch::UniformCriticalStretch;
-use crate::damage::{Damage, DamageLaw, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN};
+use crate::damage::mixed::MixedLaws;
+use crate::damage::{
+    Damage, DamageLaw, MixedDamage, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN,
+};
 use crate::material::simd::{self, NodeBonds};
 use crate::material::{BondGeom, Material, PointError};
 use crate::math::{to3, Vector};
@@ -257,10 +260,36 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 Some(law) => self.compute_with(&quad, &law, body, bonds, state),
                 None => self.compute_with(&quad, d, body, bonds, state),
             },
-            (Damage::Mixed(d), _) => self.compute_with(&quad, d, body, bonds, state),
+            (Damage::Mixed(d), Some(u)) => self.compute_mixed(u, d, body, bonds, state),
+            (Damage::Mixed(d), None) => self.compute_mixed(&quad, d, body, bonds, state),
         };
         self.damage = damage;
         broke
+    }
+
+    /// `compute_with` for the mixed law, in the form its blocks need.
+    fn compute_mixed<W: Weights>(
+        &mut self,
+        weights: &W,
+        d: &MixedDamage,
+        body: &Body<D>,
+        bonds: &Bonds,
+        state: &mut State<D>,
+    ) -> u64 {
+        match (d.softens(), d.records_work()) {
+            (false, false) => {
+                self.compute_with(weights, &MixedLaws::<false, false>(d), body, bonds, state)
+            }
+            (false, true) => {
+                self.compute_with(weights, &MixedLaws::<false, true>(d), body, bonds, state)
+            }
+            (true, false) => {
+                self.compute_with(weights, &MixedLaws::<true, false>(d), body, bonds, state)
+            }
+            (true, true) => {
+                self.compute_with(weights, &MixedLaws::<true, true>(d), body, bonds, state)
+            }
+        }
     }
 
     fn compute_with<W: Weights, Dm: DamageLaw>(
