@@ -12,7 +12,10 @@ fn root() -> PathBuf {
 
 #[test]
 fn shipped_examples_build() {
-    for entry in std::fs::read_dir(root().join("examples")).unwrap() {
+    let decks = ["examples", "bench/lammps"]
+        .into_iter()
+        .flat_map(|dir| std::fs::read_dir(root().join(dir)).unwrap());
+    for entry in decks {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "toml") {
             let ld = LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
