@@ -12,6 +12,7 @@
 //! [`Shape::bounding_box`] assume a valid shape and never panic on an invalid
 //! one, but their answers for it are unspecified.
 
+pub mod boundary;
 pub mod point_cloud;
 
 use serde::{Deserialize, Serialize};
