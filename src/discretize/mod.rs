@@ -2,6 +2,7 @@
 
 pub mod free_mesh;
 pub mod lattice;
+pub mod recombine;
 pub mod reorder;
 
 /// Nodes before they become a `Body`: reference positions (padded to 3 components),
