@@ -74,12 +74,16 @@ impl TriangleMesh {
 /// Meshes `shape` (2D) with triangles of about `size` (mean edge length).
 pub fn free_mesh(shape: &Shape, size: f64) -> Result<TriangleMesh, String> {
     let segments = boundary_segments(shape, size).map_err(|e| e.to_string())?;
-    mesh_inside(shape, &segments, size)
+    mesh_inside(|p| shape.contains(&p), &segments, size)
 }
 
-/// Meshes the part of `shape` enclosed by `segments` (seeded boundary pieces, body on their
-/// left), keeping the segments as edges.
-pub fn mesh_inside(shape: &Shape, segments: &[Segment], size: f64) -> Result<TriangleMesh, String> {
+/// Meshes the region enclosed by `segments` (seeded boundary pieces, region on their left),
+/// keeping the segments as edges; `inside` tells whether a point is in the region.
+pub fn mesh_inside(
+    inside: impl Fn([f64; 2]) -> bool,
+    segments: &[Segment],
+    size: f64,
+) -> Result<TriangleMesh, String> {
     let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
     for s in segments {
         let a = cdt
@@ -124,7 +128,7 @@ pub fn mesh_inside(shape: &Shape, segments: &[Segment], size: f64) -> Result<Tri
         let k = mesh.triangles.len() - 1;
         // A pocket left inside by crossing CSG outlines is dropped by the shape itself.
         let c = mesh.centroid(k);
-        if mesh.area(k) <= 0.0 || !shape.contains(&c) {
+        if mesh.area(k) <= 0.0 || !inside(c) {
             mesh.triangles.pop();
         }
     }
