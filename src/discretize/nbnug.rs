@@ -75,7 +75,7 @@ impl NbNug {
             let inside = (0..2).all(|a| {
                 self.min[a] < h.center[a] - h.radius && h.center[a] + h.radius < self.max[a]
             });
-            if !(h.radius > 0.0) || !inside {
+            if h.radius.is_nan() || h.radius <= 0.0 || !inside {
                 return Err(format!(
                     "hole {k} (centre {:?}, radius {}) must have a positive radius and lie inside the plate {:?}–{:?} without touching its boundary",
                     h.center, h.radius, self.min, self.max
