@@ -14,6 +14,7 @@
 
 pub mod boundary;
 pub mod point_cloud;
+pub mod pores;
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
