@@ -13,6 +13,7 @@ pub mod damage;
 pub mod deck;
 pub mod discretize;
 pub mod geometry;
+pub mod grid;
 pub mod loading;
 pub mod material;
 pub mod math;

@@ -38,6 +38,14 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Write a deck's grid without running it: nodes (VTU: volume, cell size, horizon, block)
+    /// and, in 2D, a PNG of the nodes with the shape's outline.
+    Grid {
+        deck: PathBuf,
+        /// Output folder (default: results/<deck name>).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
     Bench {
         /// Target number of directed bonds per case.
@@ -55,6 +63,13 @@ enum Command {
     },
 }
 
+/// The deck's file name without extension ("run" if it has none).
+fn deck_name(deck: &std::path::Path) -> String {
+    deck.file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "run".into())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: Result<(), String> = match cli.command {
@@ -65,11 +80,7 @@ fn main() -> ExitCode {
             quiet,
         } => (|| {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
-            let name = deck
-                .file_stem()
-                .map(|s| s.to_string_lossy().to_string())
-                .unwrap_or_else(|| "run".into());
-            let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(name));
+            let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
             let summary = run(
                 &ld,
                 &RunOptions {
@@ -86,6 +97,17 @@ fn main() -> ExitCode {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
             let report = check(&ld, threads).map_err(|e| e.to_string())?;
             println!("{}: deck is valid\n{report}", deck.display());
+            Ok(())
+        })(),
+        Command::Grid { deck, output } => (|| {
+            let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
+            let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
+            let report = peridyn::grid::write_grid(&ld, &out_dir).map_err(|e| e.to_string())?;
+            println!(
+                "{report}
+grid written to {}",
+                out_dir.display()
+            );
             Ok(())
         })(),
         Command::Bench {

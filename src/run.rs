@@ -71,6 +71,7 @@ pub struct ModelReport {
     pub bytes_per_bond: usize,
     /// Every material as calibrated.
     pub materials: Vec<MaterialReport>,
+    pub grid: crate::grid::GridReport,
 }
 
 impl std::fmt::Display for ModelReport {
@@ -81,6 +82,7 @@ impl std::fmt::Display for ModelReport {
             self.model, self.dimension, self.damage
         )?;
         writeln!(f, "nodes            {}", self.nodes)?;
+        writeln!(f, "{}", self.grid)?;
         writeln!(
             f,
             "bonds            {} ({:.1} per node, {} B per directed bond)",
@@ -297,6 +299,12 @@ pub fn prepare<const D: usize, M: Material<D>>(
         ..
     } = model;
     let history_bytes = damage.bytes_per_bond(M::CENTRAL);
+    let grid = crate::grid::grid_report(
+        &body,
+        &bonds,
+        ld.deck.thickness.unwrap_or(1.0),
+        crate::grid::deck_shape(ld),
+    );
     let mut sim = Simulation::new(
         body,
         bonds,
@@ -364,6 +372,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
             + sim.bonds.len() * bytes_per_bond,
         bytes_per_bond,
         materials: reports,
+        grid,
     };
     Ok((sim, report))
 }

@@ -98,6 +98,7 @@ impl<const D: usize> Observer<D> for Snapshots {
                 view.state.time * 1e6
             );
             let style = MapStyle {
+                outline: &[],
                 title: &title,
                 label: "damage (-)",
                 vmin: 0.0,

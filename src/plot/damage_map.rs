@@ -53,6 +53,8 @@ pub struct MapStyle<'a> {
     /// Requested image width in pixels. The image is made narrower only for
     /// very tall domains, to keep the 1:1 aspect within the height limit.
     pub width_px: u32,
+    /// Line segments (metres) drawn over the nodes, e.g. the shape's boundary.
+    pub outline: &'a [[[f64; 2]; 2]],
 }
 
 /// An RGB8 image in memory plus where the data area lies in it.
@@ -333,6 +335,14 @@ pub(crate) fn render_scalar_map(
         };
         draw(root.draw(&frame(&plot_area)))?;
         draw(root.draw(&frame(&bar)))?;
+        chart
+            .draw_series(style.outline.iter().map(|[a, b]| {
+                PathElement::new(
+                    [(a[0] * 1e3, a[1] * 1e3), (b[0] * 1e3, b[1] * 1e3)],
+                    RED.stroke_width(1),
+                )
+            }))
+            .map_err(|e| e.to_string())?;
 
         // Title centred over the plot area, its font shrunk until a long title fits the
         // image (and then centred on the image).
@@ -522,6 +532,7 @@ mod tests {
 
     fn style() -> MapStyle<'static> {
         MapStyle {
+            outline: &[],
             title: "Damage, step 1000",
             label: "damage (-)",
             vmin: 0.0,
