@@ -2,6 +2,7 @@
 
 pub mod free_mesh;
 pub mod lattice;
+pub mod multigrid;
 pub mod nbnug;
 pub mod recombine;
 pub mod reorder;
