@@ -1,5 +1,6 @@
 //! Turning a shape or a file into nodes: positions, volumes and cell sizes.
 
+pub mod gmsh;
 pub mod lattice;
 pub mod reorder;
 
