@@ -783,7 +783,9 @@ fn read_elements_v4(r: &mut Reader, raw: &mut Raw, dim: usize) -> Result<(), Gms
         let kind = check_type(r, at, number, dim)?;
         let n = r.n("the number of elements in the block")?;
         for _ in 0..n {
-            r.skip_ws();
+            if !r.binary {
+                r.skip_ws();
+            }
             let at = r.at();
             let tag = r.n("an element tag")?;
             let first = raw.connectivity.len();
@@ -857,7 +859,8 @@ fn det3(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
         + a[2] * (b[0] * c[1] - b[1] * c[0])
 }
 
-/// Signed measure and centroid of a body element, from its simplices.
+/// Signed measure and centroid of a body element, from its simplices. The simplices' weights
+/// (2× area, 6× volume) are summed before scaling, so a unit cube split in six has volume 1.
 fn measure(number: i32, p: &[[f64; 3]]) -> (f64, [f64; 3]) {
     const QUAD: &[[usize; 3]] = &[[0, 1, 2], [0, 2, 3]];
     const HEX: &[[usize; 4]] = &[
@@ -882,13 +885,13 @@ fn measure(number: i32, p: &[[f64; 3]]) -> (f64, [f64; 3]) {
             let tris = if number == 2 { &QUAD[..1] } else { QUAD };
             for t in tris {
                 let (a, b) = (sub(p[t[1]], p[t[0]]), sub(p[t[2]], p[t[0]]));
-                add(0.5 * (a[0] * b[1] - a[1] * b[0]), t);
+                add(a[0] * b[1] - a[1] * b[0], t);
             }
         }
-        4 => add(det3(sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0])) / 6.0, &[0, 1, 2, 3]),
+        4 => add(det3(sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0])), &[0, 1, 2, 3]),
         _ => {
             for t in HEX {
-                let m = det3(sub(p[t[1]], p[t[0]]), sub(p[t[2]], p[t[0]]), sub(p[t[3]], p[t[0]])) / 6.0;
+                let m = det3(sub(p[t[1]], p[t[0]]), sub(p[t[2]], p[t[0]]), sub(p[t[3]], p[t[0]]));
                 add(m, t);
             }
         }
@@ -898,7 +901,8 @@ fn measure(number: i32, p: &[[f64; 3]]) -> (f64, [f64; 3]) {
     } else {
         [0.0; 3]
     };
-    (total, centroid)
+    let factor = if matches!(number, 2 | 3) { 2.0 } else { 6.0 };
+    (total / factor, centroid)
 }
 
 fn describe_nodes(tags: &[u64], p: &[[f64; 3]]) -> String {
