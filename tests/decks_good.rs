@@ -18,7 +18,11 @@ fn shipped_examples_build() {
             let ld = LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
             let report = check(&ld, Some(1)).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             // The Gmsh example is a small mesh (432 elements); the lattices are finer.
-            let min_nodes = if path.ends_with("gmsh_plate.toml") { 400 } else { 1000 };
+            let min_nodes = if path.ends_with("gmsh_plate.toml") {
+                400
+            } else {
+                1000
+            };
             assert!(
                 report.nodes > min_nodes && report.steps > 0 && report.dt <= report.dt_stable,
                 "{}",

@@ -30,9 +30,12 @@ enum Format {
 
 const FORMATS: [Format; 3] = [Format::Ascii41, Format::Binary41, Format::Ascii22];
 
+/// (entity dim, entity tag, type) and its (element tag, node tags).
+type Block = ((i32, i32, i32), Vec<(u64, Vec<u64>)>);
+
 /// Element blocks: runs of elements with the same (entity dim, entity tag, type).
-fn blocks(m: &Mesh) -> Vec<((i32, i32, i32), Vec<(u64, Vec<u64>)>)> {
-    let mut out: Vec<((i32, i32, i32), Vec<(u64, Vec<u64>)>)> = Vec::new();
+fn blocks(m: &Mesh) -> Vec<Block> {
+    let mut out: Vec<Block> = Vec::new();
     for (d, t, ty, tag, nodes) in &m.elements {
         let key = (*d, *t, *ty);
         match out.last_mut() {
@@ -462,16 +465,17 @@ fn stretched_hexahedron_volume() {
     }
     let g = parse(&m, Format::Binary41, 3);
     assert!(close(g.measures[0], 6.0), "{}", g.measures[0]);
-    assert!(close3(g.positions[0], [1.0, 0.5, 2.0]), "{:?}", g.positions[0]);
+    assert!(
+        close3(g.positions[0], [1.0, 0.5, 2.0]),
+        "{:?}",
+        g.positions[0]
+    );
 }
 
 #[test]
 fn unknown_sections_are_skipped_and_crlf_is_read() {
     let text = write_ascii41(&unit_square())
-        .replace(
-            "$Nodes",
-            "$Comments\nanything $Nodes\n$EndComments\n$Nodes",
-        )
+        .replace("$Nodes", "$Comments\nanything $Nodes\n$EndComments\n$Nodes")
         .replace('\n', "\r\n");
     let g = parse_gmsh(text.as_bytes(), 2, "m.msh").unwrap();
     assert_eq!(g.len(), 2);
@@ -541,7 +545,7 @@ fn error_missing_nodes_or_elements() {
         "m.msh: no $Nodes section; expected the mesh nodes (export the mesh, not only the geometry)"
     );
     assert_eq!(
-        err(text[..elements].as_bytes(), 2),
+        err(&text.as_bytes()[..elements], 2),
         "m.msh: no $Elements section; expected the mesh elements"
     );
 }
@@ -569,7 +573,7 @@ fn error_truncated() {
     let text = write_ascii41(&unit_square());
     let cut = text.find("1 1 0\n").unwrap();
     assert_eq!(
-        err(text[..cut].as_bytes(), 2),
+        err(&text.as_bytes()[..cut], 2),
         format!(
             "m.msh:{}: the file ends inside $Nodes (truncated?); expected the x coordinate of node 3",
             line_of(&text, "1 1 0")
@@ -578,7 +582,7 @@ fn error_truncated() {
     let text = write_ascii41(&unit_square());
     let cut = text.find("$EndElements").unwrap();
     assert_eq!(
-        err(text[..cut].as_bytes(), 2),
+        err(&text.as_bytes()[..cut], 2),
         format!(
             "m.msh:{}: the file ends inside $Elements (truncated?); expected $EndElements",
             line_of(&text, "$EndElements")
@@ -654,7 +658,10 @@ fn error_higher_order_and_unsupported_types() {
     let text = write_ascii41(&unit_square()).replace("2 1 2 2", "2 1 77 2");
     assert_eq!(
         err(text.as_bytes(), 2),
-        format!("m.msh:{}: unknown Gmsh element type 77", line_of(&text, "2 1 77 2"))
+        format!(
+            "m.msh:{}: unknown Gmsh element type 77",
+            line_of(&text, "2 1 77 2")
+        )
     );
 }
 
@@ -738,7 +745,12 @@ fn plate() -> Mesh {
                 1,
                 3,
                 tag,
-                vec![node(i, j), node(i + 1, j), node(i + 1, j + 1), node(i, j + 1)],
+                vec![
+                    node(i, j),
+                    node(i + 1, j),
+                    node(i + 1, j + 1),
+                    node(i, j + 1),
+                ],
             ));
             tag += 1;
         }
@@ -802,7 +814,11 @@ fn deck_runs_on_a_mesh_in_every_format() {
         let model = build_model::<2>(&ld).unwrap_or_else(|e| panic!("{f:?}: {e}"));
         assert_eq!(model.body.len(), 200);
         assert!((model.body.total_volume() - 2e-4 * 1e-3).abs() < 1e-20);
-        assert!(model.body.cell_sizes.iter().all(|&r| (r - 1e-3).abs() < 1e-15));
+        assert!(model
+            .body
+            .cell_sizes
+            .iter()
+            .all(|&r| (r - 1e-3).abs() < 1e-15));
         assert!(model.body.blocks.iter().all(|&b| b == 1));
         // Node sets survive the body's reordering: "left" is the first column of elements.
         let left = &model.body.node_sets["left"];
@@ -824,11 +840,20 @@ fn deck_runs_on_a_mesh_in_every_format() {
         )
         .unwrap_or_else(|e| panic!("{f:?}: {e}"));
         assert_eq!(summary.report.steps, 20);
-        assert!(summary.external_work > 0.0, "{f:?}: the pulled edge does work");
+        assert!(
+            summary.external_work > 0.0,
+            "{f:?}: the pulled edge does work"
+        );
         assert!(summary.strain_energy > 0.0 && summary.kinetic_energy.is_finite());
         // resolved.toml refers to the mesh by an absolute path.
         let resolved = std::fs::read_to_string(out.join("resolved.toml")).unwrap();
-        assert!(resolved.contains(&dir.join("plate.msh").canonicalize().unwrap().display().to_string()));
+        assert!(resolved.contains(
+            &dir.join("plate.msh")
+                .canonicalize()
+                .unwrap()
+                .display()
+                .to_string()
+        ));
         std::fs::remove_dir_all(&dir).ok();
     }
 }
@@ -862,7 +887,11 @@ fn deck_errors_with_mesh_sets() {
         "{e}"
     );
     // A broken mesh is reported at discretization.file with the mesh's own location.
-    std::fs::write(dir.join("plate.msh"), "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n").unwrap();
+    std::fs::write(
+        dir.join("plate.msh"),
+        "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n",
+    )
+    .unwrap();
     let e = build_err(PLATE_DECK);
     assert!(
         e.contains(&format!(

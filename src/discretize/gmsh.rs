@@ -319,7 +319,10 @@ impl<'a> Reader<'a> {
 
     fn float(&mut self, what: &str) -> Result<f64, GmshError> {
         let (tok, at) = self.token(what)?;
-        match std::str::from_utf8(tok).ok().and_then(|s| s.parse::<f64>().ok()) {
+        match std::str::from_utf8(tok)
+            .ok()
+            .and_then(|s| s.parse::<f64>().ok())
+        {
             Some(v) if v.is_finite() => Ok(v),
             _ => Err(self.err(
                 at,
@@ -361,10 +364,7 @@ impl<'a> Reader<'a> {
     fn end(&mut self, end: &str) -> Result<(), GmshError> {
         match self.next_line() {
             Some((l, _)) if l == end => Ok(()),
-            Some((l, at)) => Err(self.err(
-                at,
-                format!("expected {end}, found {:?}", shorten(&l)),
-            )),
+            Some((l, at)) => Err(self.err(at, format!("expected {end}, found {:?}", shorten(&l)))),
             None => Err(self.truncated(end)),
         }
     }
@@ -520,9 +520,7 @@ pub fn parse_gmsh(bytes: &[u8], dim: usize, source_name: &str) -> Result<GmshMes
 fn read_format(r: &mut Reader) -> Result<Version, GmshError> {
     match r.next_line() {
         None => {
-            return Err(r.file_err(
-                "empty file; expected a Gmsh mesh starting with $MeshFormat",
-            ))
+            return Err(r.file_err("empty file; expected a Gmsh mesh starting with $MeshFormat"))
         }
         Some((l, _)) if l == "$MeshFormat" => {}
         Some((l, at)) => {
@@ -624,8 +622,14 @@ fn read_physical_names(r: &mut Reader, raw: &mut Raw) -> Result<(), GmshError> {
             )
         };
         let mut it = l.splitn(3, char::is_whitespace);
-        let d = it.next().and_then(|s| s.parse::<i32>().ok()).ok_or_else(bad)?;
-        let t = it.next().and_then(|s| s.parse::<i32>().ok()).ok_or_else(bad)?;
+        let d = it
+            .next()
+            .and_then(|s| s.parse::<i32>().ok())
+            .ok_or_else(bad)?;
+        let t = it
+            .next()
+            .and_then(|s| s.parse::<i32>().ok())
+            .ok_or_else(bad)?;
         let rest = it.next().ok_or_else(bad)?.trim();
         let name = rest
             .strip_prefix('"')
@@ -639,7 +643,12 @@ fn read_physical_names(r: &mut Reader, raw: &mut Raw) -> Result<(), GmshError> {
 fn read_entities(r: &mut Reader, raw: &mut Raw) -> Result<(), GmshError> {
     let mut counts = [0u64; 4];
     for (d, c) in counts.iter_mut().enumerate() {
-        *c = r.n(["the number of points", "the number of curves", "the number of surfaces", "the number of volumes"][d])?;
+        *c = r.n([
+            "the number of points",
+            "the number of curves",
+            "the number of surfaces",
+            "the number of volumes",
+        ][d])?;
     }
     for (d, &count) in counts.iter().enumerate() {
         let what = ["point", "curve", "surface", "volume"][d];
@@ -666,7 +675,13 @@ fn read_entities(r: &mut Reader, raw: &mut Raw) -> Result<(), GmshError> {
     r.end("$EndEntities")
 }
 
-fn add_node(r: &Reader, raw: &mut Raw, tag: u64, at: Location, xyz: [f64; 3]) -> Result<(), GmshError> {
+fn add_node(
+    r: &Reader,
+    raw: &mut Raw,
+    tag: u64,
+    at: Location,
+    xyz: [f64; 3],
+) -> Result<(), GmshError> {
     if raw.node_index.insert(tag, raw.coords.len()).is_some() {
         return Err(r.err(at, format!("node {tag} is defined twice")));
     }
@@ -687,7 +702,11 @@ fn read_nodes_v4(r: &mut Reader, raw: &mut Raw) -> Result<(), GmshError> {
         r.i("the entity tag of a node block")?;
         let parametric = r.i("the parametric flag of a node block (0 or 1)")?;
         let n = r.n("the number of nodes in the block")?;
-        let extra = if parametric != 0 { entity_dim.clamp(0, 3) as usize } else { 0 };
+        let extra = if parametric != 0 {
+            entity_dim.clamp(0, 3) as usize
+        } else {
+            0
+        };
         tags.clear();
         for _ in 0..n {
             let at = r.at();
@@ -888,10 +907,17 @@ fn measure(number: i32, p: &[[f64; 3]]) -> (f64, [f64; 3]) {
                 add(a[0] * b[1] - a[1] * b[0], t);
             }
         }
-        4 => add(det3(sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0])), &[0, 1, 2, 3]),
+        4 => add(
+            det3(sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0])),
+            &[0, 1, 2, 3],
+        ),
         _ => {
             for t in HEX {
-                let m = det3(sub(p[t[1]], p[t[0]]), sub(p[t[2]], p[t[0]]), sub(p[t[3]], p[t[0]]));
+                let m = det3(
+                    sub(p[t[1]], p[t[0]]),
+                    sub(p[t[2]], p[t[0]]),
+                    sub(p[t[3]], p[t[0]]),
+                );
                 add(m, t);
             }
         }
@@ -936,15 +962,18 @@ fn assemble(r: &Reader, raw: Raw, dim: usize, version: Version) -> Result<GmshMe
         nodes_of(e)
             .iter()
             .map(|t| {
-                raw.node_index.get(t).map(|&i| raw.coords[i]).ok_or_else(|| {
-                    err(
-                        e.at,
-                        format!(
-                            "element {} ({}) refers to node {t}, which $Nodes does not define",
-                            e.tag, e.kind.name
-                        ),
-                    )
-                })
+                raw.node_index
+                    .get(t)
+                    .map(|&i| raw.coords[i])
+                    .ok_or_else(|| {
+                        err(
+                            e.at,
+                            format!(
+                                "element {} ({}) refers to node {t}, which $Nodes does not define",
+                                e.tag, e.kind.name
+                            ),
+                        )
+                    })
             })
             .collect()
     };
@@ -1027,7 +1056,8 @@ fn assemble(r: &Reader, raw: Raw, dim: usize, version: Version) -> Result<GmshMe
         index_of_tag.insert(e.tag, body.len());
         body.push(k);
         groups.push(phys);
-        mesh.positions.push(if dim == 2 { [c[0], c[1], 0.0] } else { c });
+        mesh.positions
+            .push(if dim == 2 { [c[0], c[1], 0.0] } else { c });
         mesh.measures.push(m);
         mesh.elements.push(e.tag);
     }
@@ -1063,7 +1093,9 @@ fn assemble(r: &Reader, raw: Raw, dim: usize, version: Version) -> Result<GmshMe
         let block = match g.first() {
             None => 0,
             Some(&t) => u32::try_from(t).map_err(|_| {
-                r.file_err(format!("physical tag {t} is negative; expected a positive tag"))
+                r.file_err(format!(
+                    "physical tag {t} is negative; expected a positive tag"
+                ))
             })?,
         };
         mesh.blocks.push(block);
@@ -1090,7 +1122,10 @@ fn assemble(r: &Reader, raw: Raw, dim: usize, version: Version) -> Result<GmshMe
                 continue;
             }
             for (i, &k) in body.iter().enumerate() {
-                if nodes_of(&raw.elements[k]).iter().any(|v| vertices.contains(v)) {
+                if nodes_of(&raw.elements[k])
+                    .iter()
+                    .any(|v| vertices.contains(v))
+                {
                     set.insert(i as u32);
                 }
             }
