@@ -30,6 +30,17 @@ pub struct Body<const D: usize> {
 impl<const D: usize> Body<D> {
     /// Builds a body from a node cloud, reordering the nodes along a Morton curve.
     pub fn from_cloud(cloud: NodeCloud, horizon: f64, thickness: f64) -> Self {
+        Self::from_cloud_with_sets(cloud, BTreeMap::new(), horizon, thickness)
+    }
+
+    /// [`from_cloud`](Self::from_cloud) with named node sets given as indices into the cloud
+    /// (e.g. a mesh's physical groups); they are renumbered with the nodes.
+    pub fn from_cloud_with_sets(
+        cloud: NodeCloud,
+        sets: BTreeMap<String, Vec<u32>>,
+        horizon: f64,
+        thickness: f64,
+    ) -> Self {
         let typical = cloud
             .cell_sizes
             .iter()
@@ -38,6 +49,18 @@ impl<const D: usize> Body<D> {
         let perm = morton_order(&cloud.positions, D, typical.max(f64::MIN_POSITIVE));
         let pick = |i: &u32| *i as usize;
         let n = perm.len();
+        let mut new_index = vec![0u32; n];
+        for (new, &old) in perm.iter().enumerate() {
+            new_index[old as usize] = new as u32;
+        }
+        let node_sets = sets
+            .into_iter()
+            .map(|(name, nodes)| {
+                let mut nodes: Vec<u32> = nodes.iter().map(|&i| new_index[i as usize]).collect();
+                nodes.sort_unstable();
+                (name, nodes)
+            })
+            .collect();
         Body {
             positions: perm
                 .iter()
@@ -48,7 +71,7 @@ impl<const D: usize> Body<D> {
             horizons: vec![horizon; n],
             blocks: perm.iter().map(|i| cloud.blocks[pick(i)]).collect(),
             no_fail: vec![false; n],
-            node_sets: BTreeMap::new(),
+            node_sets,
             thickness: if D == 2 { thickness } else { 1.0 },
         }
     }

@@ -504,10 +504,10 @@ fn write_resolved(
     report: &ModelReport,
     out: &std::path::Path,
 ) -> Result<(), RunError> {
-    // A point-cloud path is made absolute so the resolved deck runs from the results folder.
+    // A point-cloud or mesh path is made absolute so the resolved deck runs from the results folder.
     let mut resolved = ld.deck.clone();
-    if let crate::deck::schema::Discretization::PointCloud { file, .. } =
-        &mut resolved.discretization
+    if let crate::deck::schema::Discretization::PointCloud { file, .. }
+    | crate::deck::schema::Discretization::Gmsh { file, .. } = &mut resolved.discretization
     {
         let path = ld.base_dir().join(&*file);
         *file = std::fs::canonicalize(&path)

@@ -20,8 +20,14 @@ fn shipped_examples_build() {
         if path.extension().is_some_and(|e| e == "toml") {
             let ld = LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
             let report = check(&ld, Some(1)).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            // The Gmsh example is a small mesh (432 elements); the lattices are finer.
+            let min_nodes = if path.ends_with("gmsh_plate.toml") {
+                400
+            } else {
+                1000
+            };
             assert!(
-                report.nodes > 1000 && report.steps > 0 && report.dt <= report.dt_stable,
+                report.nodes > min_nodes && report.steps > 0 && report.dt <= report.dt_stable,
                 "{}",
                 path.display()
             );

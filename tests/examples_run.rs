@@ -129,3 +129,13 @@ fn dual_horizon_pulse_keeps_its_energy() {
     let ratio = r.kinetic_energy / r.strain_energy;
     assert!((0.7..1.4).contains(&ratio), "kinetic/strain = {ratio}");
 }
+
+#[test]
+fn gmsh_plate_runs_on_its_mesh() {
+    // One node per element: 144 quadrangles and 288 triangles. The first 20 steps (7.6 µs)
+    // load it elastically.
+    let r = run_steps(deck("gmsh_plate.toml"), Some(20));
+    assert_eq!(r.report.nodes, 432);
+    assert_eq!(r.broken_bonds, 0);
+    assert_work_stored("gmsh_plate", &r, 0.02);
+}

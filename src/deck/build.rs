@@ -11,6 +11,7 @@ use crate::damage::porosity::Porosity;
 use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
 use crate::damage::DamageLaw;
 use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
+use crate::discretize::gmsh::read_gmsh;
 use crate::discretize::{lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
 use crate::loading::{BoundaryCondition, InitialVelocity, Load, Loading};
@@ -116,7 +117,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     let thickness = deck.thickness.unwrap_or(1.0);
     let available = memory::available_bytes();
     let per_node = memory::bytes_per_node(D, 256);
-    let (cloud, horizon, rule) = match &deck.discretization {
+    let (cloud, horizon, rule, mesh_sets) = match &deck.discretization {
         Discretization::Lattice {
             shape,
             spacing,
@@ -131,7 +132,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
                 .fits(available)
                 .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.spacing", e)]))?;
             let cloud = lattice::lattice(shape, D, *spacing, thickness).map_err(at)?;
-            (cloud, h, *partial_volume)
+            (cloud, h, *partial_volume, BTreeMap::new())
         }
         Discretization::PointCloud {
             file,
@@ -161,6 +162,38 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
                 },
                 *horizon,
                 *partial_volume,
+                BTreeMap::new(),
+            )
+        }
+        Discretization::Gmsh {
+            file,
+            horizon,
+            partial_volume,
+        } => {
+            let path = ld.base_dir().join(file);
+            let mesh = read_gmsh(&path, D).map_err(|e| {
+                ld.locate(vec![DeckIssue::new("discretization.file", e.to_string())])
+            })?;
+            let cell_sizes = mesh
+                .measures
+                .iter()
+                .map(|&v| if D == 2 { v.sqrt() } else { v.cbrt() })
+                .collect();
+            let volumes = mesh
+                .measures
+                .iter()
+                .map(|&v| if D == 2 { v * thickness } else { v })
+                .collect();
+            (
+                NodeCloud {
+                    positions: mesh.positions,
+                    volumes,
+                    cell_sizes,
+                    blocks: mesh.blocks,
+                },
+                *horizon,
+                *partial_volume,
+                mesh.node_sets,
             )
         }
     };
@@ -175,14 +208,31 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             "the discretization produced no nodes; check the shape and spacing",
         )]));
     }
-    let mut body = Body::<D>::from_cloud(cloud, horizon, thickness);
+    let mesh_set_names: Vec<String> = mesh_sets.keys().cloned().collect();
+    let mut body = Body::<D>::from_cloud_with_sets(cloud, mesh_sets, horizon, thickness);
     let spacing = body.min_cell_size();
     if horizon < spacing {
         return Err(ld.locate(vec![DeckIssue::new("discretization.horizon", format!("horizon {horizon} m is smaller than the smallest cell {spacing} m; expected δ/Δx ≥ 1, typically 3 to 4"))]));
     }
     let (material_of, materials) = assign_blocks(ld, &mut body)?;
     let mut issues = Vec::new();
+    if mesh_set_names.iter().any(|n| n == "all") {
+        issues.push(DeckIssue::new(
+            "discretization.file",
+            "the mesh has a physical group named \"all\", a reserved node set name (every node); rename the group",
+        ));
+    }
     for (k, set) in deck.node_sets.iter().enumerate() {
+        if mesh_set_names.contains(&set.name) {
+            issues.push(DeckIssue::new(
+                &format!("node_sets[{k}].name"),
+                format!(
+                    "node set {:?} is also a named physical group of the mesh; rename one of them",
+                    set.name
+                ),
+            ));
+            continue;
+        }
         if body.add_node_set(&set.name, &set.region) == 0 {
             issues.push(DeckIssue::new(
                 &format!("node_sets[{k}].region"),
@@ -193,6 +243,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             ));
         }
     }
+    unknown_sets(deck, &body, &mut issues);
     if !issues.is_empty() {
         return Err(ld.locate(issues));
     }
@@ -315,6 +366,39 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         material_of,
         materials,
     })
+}
+
+/// Node set names the deck refers to but neither it nor the mesh defines (validation leaves
+/// them to the build when the nodes come from a mesh).
+fn unknown_sets<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut Vec<DeckIssue>) {
+    let mut refs: Vec<(String, &str)> = Vec::new();
+    for (k, name) in deck.no_fail.iter().enumerate() {
+        refs.push((format!("no_fail[{k}]"), name));
+    }
+    for (k, bc) in deck.boundary_conditions.iter().enumerate() {
+        refs.push((format!("boundary_conditions[{k}].set"), &bc.set));
+    }
+    for (k, load) in deck.loads.iter().enumerate() {
+        let (LoadDeck::BodyForce { set, .. } | LoadDeck::Traction { set, .. }) = load;
+        refs.push((format!("loads[{k}].set"), set));
+    }
+    for (k, iv) in deck.initial_velocities.iter().enumerate() {
+        refs.push((format!("initial_velocities[{k}].set"), &iv.set));
+    }
+    for (path, name) in refs {
+        if body.node_set(name).is_none() {
+            issues.push(DeckIssue::new(
+                &path,
+                format!(
+                    "unknown node set {name:?}; defined sets (deck and mesh): all{}",
+                    body.node_sets
+                        .keys()
+                        .map(|n| format!(", {n}"))
+                        .collect::<String>()
+                ),
+            ));
+        }
+    }
 }
 
 /// History words per bond of a damage law with a central material or not (for the memory

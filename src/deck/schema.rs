@@ -92,6 +92,16 @@ pub enum Discretization {
         #[serde(default)]
         partial_volume: PartialVolume,
     },
+    /// A Gmsh mesh (`.msh` 4.1 ASCII/binary or 2.2 ASCII): one node per element of the
+    /// body's dimension; physical groups give blocks and node sets.
+    Gmsh {
+        /// Path, relative to the deck's folder.
+        file: String,
+        /// Horizon δ (m).
+        horizon: f64,
+        #[serde(default)]
+        partial_volume: PartialVolume,
+    },
 }
 
 /// A material: its constitutive model, elastic and fracture properties, and damage law.

@@ -134,11 +134,16 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
                 }
             }
         }
-        Discretization::PointCloud { file, horizon, .. } => {
+        Discretization::PointCloud { file, horizon, .. }
+        | Discretization::Gmsh { file, horizon, .. } => {
             if file.trim().is_empty() {
                 out.push(DeckIssue::new(
                     "discretization.file",
-                    "expected the path of a point-cloud file",
+                    if matches!(deck.discretization, Discretization::Gmsh { .. }) {
+                        "expected the path of a Gmsh mesh (.msh)"
+                    } else {
+                        "expected the path of a point-cloud file"
+                    },
                 ));
             }
             positive(&mut out, "discretization.horizon", *horizon, "horizon (m)");
@@ -171,7 +176,9 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         names.push(&set.name);
         check_shape(&mut out, &format!("{p}.region"), &set.region);
     }
-    let known = |name: &str| name == "all" || names.contains(&name);
+    // A mesh's named physical groups are node sets too; they are known once it is read.
+    let from_mesh = matches!(deck.discretization, Discretization::Gmsh { .. });
+    let known = |name: &str| from_mesh || name == "all" || names.contains(&name);
     let unknown_set = |name: &str| {
         format!(
             "unknown node set {name:?}; defined sets: all{}",
@@ -185,7 +192,7 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         } else if matches!(deck.discretization, Discretization::Lattice { .. }) {
             out.push(DeckIssue::new(
                 &format!("blocks[{k}]"),
-                "a block needs a `region` (only a point cloud can give block ids without one)",
+                "a block needs a `region` (only a point cloud or a Gmsh mesh can give block ids without one)",
             ));
         }
         if let Some(name) = &b.material {

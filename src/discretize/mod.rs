@@ -1,6 +1,7 @@
 //! Turning a shape or a file into nodes: positions, volumes and cell sizes.
 
 pub mod free_mesh;
+pub mod gmsh;
 pub mod lattice;
 pub mod multigrid;
 pub mod nbnug;
