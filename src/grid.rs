@@ -56,8 +56,10 @@ impl std::fmt::Display for GridReport {
 /// The shape a deck's discretization fills, if it names one.
 pub fn deck_shape(ld: &LoadedDeck) -> Option<&Shape> {
     match &ld.deck.discretization {
-        Discretization::Lattice { shape, .. } => Some(shape),
-        _ => None,
+        Discretization::Lattice { shape, .. }
+        | Discretization::FreeMesh { shape, .. }
+        | Discretization::Nbnug { shape, .. } => Some(shape),
+        Discretization::PointCloud { .. } | Discretization::Gmsh { .. } => None,
     }
 }
 

@@ -1,5 +1,6 @@
 //! Deck → model: body, bonds, loading, and the calibrated materials and damage laws.
 
+use super::grids;
 use super::schema::*;
 use super::validate::dimensionality;
 use super::{DeckError, DeckIssue, LoadedDeck};
@@ -109,6 +110,20 @@ pub struct ExplicitSettings {
     pub safety_factor: f64,
 }
 
+/// The deck's random pores, if any, or an error at `discretization.pores`.
+fn deck_pores(
+    ld: &LoadedDeck,
+    shape: &crate::geometry::Shape,
+    dim: usize,
+    pores: &Option<PoresDeck>,
+) -> Result<Vec<crate::geometry::pores::Pore>, DeckError> {
+    match pores {
+        None => Ok(Vec::new()),
+        Some(p) => grids::pores_of(shape, dim, p)
+            .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.pores", e)])),
+    }
+}
+
 /// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
 /// memory than the machine has.
 pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckError> {
@@ -124,14 +139,65 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             horizon,
             horizon_ratio,
             partial_volume,
+            refine,
+            pores,
         } => {
             let h = horizon.unwrap_or_else(|| horizon_ratio.unwrap_or(3.0) * spacing);
             let at = |e: String| ld.locate(vec![DeckIssue::new("discretization.shape", e)]);
-            let cells = lattice::cell_count(shape, D, *spacing).map_err(at)?;
+            let pores = deck_pores(ld, shape, D, pores)?;
+            // Each level of refinement can at most multiply the count by 2^D.
+            let deepest = refine.iter().map(|r| r.levels).max().unwrap_or(0);
+            let cells = lattice::cell_count(shape, D, *spacing).map_err(at)?
+                * (1u64 << (D as u32 * deepest.min(8))) as f64;
             memory::Estimate::new(cells, 0.0, per_node, 0)
                 .fits(available)
                 .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.spacing", e)]))?;
-            let cloud = lattice::lattice(shape, D, *spacing, thickness).map_err(at)?;
+            let cloud =
+                grids::lattice_grid(shape, D, *spacing, thickness, refine, &pores).map_err(at)?;
+            (cloud, h, *partial_volume, BTreeMap::new())
+        }
+        Discretization::FreeMesh {
+            shape,
+            size,
+            horizon,
+            horizon_ratio,
+            partial_volume,
+            cells,
+            pores,
+        }
+        | Discretization::Nbnug {
+            shape,
+            size,
+            horizon,
+            horizon_ratio,
+            partial_volume,
+            cells,
+            pores,
+            ..
+        } => {
+            let h = horizon.unwrap_or_else(|| horizon_ratio.unwrap_or(3.0) * size);
+            let at = |e: String| ld.locate(vec![DeckIssue::new("discretization.shape", e)]);
+            // A triangle of the mesh covers about 0.2 size² or more.
+            let (lo, hi) = shape
+                .bounding_box()
+                .ok_or_else(|| at("the shape must be bounded".into()))?;
+            let cells_estimate = (hi[0] - lo[0]) * (hi[1] - lo[1]) / (0.2 * size * size);
+            memory::Estimate::new(cells_estimate, 0.0, per_node, 0)
+                .fits(available)
+                .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.size", e)]))?;
+            let pores = deck_pores(ld, shape, D, pores)?;
+            let cloud = match &deck.discretization {
+                Discretization::Nbnug { padding, .. } => grids::nbnug_grid(
+                    shape,
+                    *size,
+                    padding.unwrap_or(h),
+                    thickness,
+                    *cells,
+                    &pores,
+                ),
+                _ => grids::free_mesh_grid(shape, *size, thickness, *cells, &pores),
+            }
+            .map_err(at)?;
             (cloud, h, *partial_volume, BTreeMap::new())
         }
         Discretization::PointCloud {
@@ -210,6 +276,19 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     }
     let mesh_set_names: Vec<String> = mesh_sets.keys().cloned().collect();
     let mut body = Body::<D>::from_cloud_with_sets(cloud, mesh_sets, horizon, thickness);
+    // A refined lattice with a horizon ratio: δ_i = m Δx_i (seed 003), dual-horizon PD.
+    if let Discretization::Lattice {
+        horizon_ratio: Some(m),
+        refine,
+        ..
+    } = &deck.discretization
+    {
+        if !refine.is_empty() {
+            for i in 0..body.len() {
+                body.horizons[i] = m * body.cell_sizes[i];
+            }
+        }
+    }
     let spacing = body.min_cell_size();
     if horizon < spacing {
         return Err(ld.locate(vec![DeckIssue::new("discretization.horizon", format!("horizon {horizon} m is smaller than the smallest cell {spacing} m; expected δ/Δx ≥ 1, typically 3 to 4"))]));

@@ -77,11 +77,58 @@ pub enum Discretization {
         /// Horizon δ (m); give this or `horizon_ratio`.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         horizon: Option<f64>,
-        /// δ/Δx; give this or `horizon`.
+        /// δ/Δx; give this or `horizon`. With `refine`, each node's horizon is this times its
+        /// own cell size (seed 003: δ_i = m Δx_i, dual-horizon PD).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         horizon_ratio: Option<f64>,
         #[serde(default)]
         partial_volume: PartialVolume,
+        /// Multi-grid refinement regions (seed 003 §3.1).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        refine: Vec<RefineDeck>,
+        /// Random pores cut from the shape (seed 000 §6).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pores: Option<PoresDeck>,
+    },
+    /// Boundary-fitted free mesh of a 2D shape (seed 000's global non-uniform grid): nodes at
+    /// element centroids, element areas as volumes.
+    FreeMesh {
+        shape: Shape,
+        /// Target element size (m): the boundary is seeded at it.
+        size: f64,
+        /// Horizon δ (m); give this or `horizon_ratio`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        horizon: Option<f64>,
+        /// δ / size; give this or `horizon`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        horizon_ratio: Option<f64>,
+        #[serde(default)]
+        partial_volume: PartialVolume,
+        #[serde(default)]
+        cells: CellKind,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pores: Option<PoresDeck>,
+    },
+    /// Near-boundary non-uniform grid (seed 000 §3): a rectangle with circular holes; uniform
+    /// cells of `size` except in square boxes around the holes, which get a free mesh.
+    Nbnug {
+        /// A rectangle, or a difference of a rectangle and disks.
+        shape: Shape,
+        /// Element size Δx (m).
+        size: f64,
+        /// Hole-to-box distance (m); default: the horizon δ (seed 000's recommended minimum).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        padding: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        horizon: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        horizon_ratio: Option<f64>,
+        #[serde(default)]
+        partial_volume: PartialVolume,
+        #[serde(default)]
+        cells: CellKind,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pores: Option<PoresDeck>,
     },
     /// Nodes read from a text file: `x y [z] volume [block]` (2D: area instead of volume).
     PointCloud {
@@ -102,6 +149,38 @@ pub enum Discretization {
         #[serde(default)]
         partial_volume: PartialVolume,
     },
+}
+
+/// A multi-grid refinement region.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefineDeck {
+    pub region: Shape,
+    /// Cells inside split this many times (1: Δx/2, 2: Δx/4, ...).
+    pub levels: u32,
+}
+
+/// Random pores (seed 000 §6), placed in the shape's bounding box.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoresDeck {
+    pub count: usize,
+    /// [r_min, r_max] (m); radii are uniform in it.
+    pub radius: [f64; 2],
+    /// Smallest gap between two pores (m).
+    #[serde(default)]
+    pub clearance: f64,
+    pub seed: u64,
+}
+
+/// The cells of a free mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CellKind {
+    /// Triangle pairs merged into quadrilaterals where they form good ones (seed 000's mesher).
+    #[default]
+    QuadDominant,
+    Triangles,
 }
 
 /// A material: its constitutive model, elastic and fracture properties, and damage law.

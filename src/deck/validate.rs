@@ -25,6 +25,61 @@ fn positive(issues: &mut Vec<DeckIssue>, path: &str, value: f64, what: &str) {
     }
 }
 
+/// `horizon` or `horizon_ratio` (of `spacing`), exactly one, each at least the spacing.
+fn check_horizon(
+    out: &mut Vec<DeckIssue>,
+    horizon: Option<f64>,
+    horizon_ratio: Option<f64>,
+    spacing: f64,
+) {
+    match (horizon, horizon_ratio) {
+        (Some(_), Some(_)) => out.push(DeckIssue::new(
+            "discretization.horizon_ratio",
+            "give `horizon` or `horizon_ratio`, not both",
+        )),
+        (None, None) => out.push(DeckIssue::new(
+            "discretization",
+            "missing the horizon: give `horizon` (m) or `horizon_ratio` (δ/Δx)",
+        )),
+        (Some(h), None) => {
+            positive(out, "discretization.horizon", h, "horizon (m)");
+            if h > 0.0 && spacing > 0.0 && h < spacing {
+                out.push(DeckIssue::new("discretization.horizon", format!("horizon {h} m is smaller than the spacing {spacing} m (δ/Δx = {:.3}); peridynamics needs δ/Δx ≥ 1, typically 3 to 4", h / spacing)));
+            }
+        }
+        (None, Some(r)) => {
+            positive(out, "discretization.horizon_ratio", r, "horizon ratio δ/Δx");
+            if r.is_finite() && r > 0.0 && r < 1.0 {
+                out.push(DeckIssue::new("discretization.horizon_ratio", format!("δ/Δx = {r} makes the horizon smaller than the spacing; expected at least 1, typically 3 to 4")));
+            }
+        }
+    }
+}
+
+/// Random pores: a count, radii 0 < r_min ≤ r_max, a clearance ≥ 0.
+fn check_pores(out: &mut Vec<DeckIssue>, pores: &Option<PoresDeck>) {
+    let Some(p) = pores else { return };
+    if p.count == 0 {
+        out.push(DeckIssue::new(
+            "discretization.pores.count",
+            "expected at least one pore (remove `pores` for none)",
+        ));
+    }
+    let [lo, hi] = p.radius;
+    if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo <= hi) {
+        out.push(DeckIssue::new(
+            "discretization.pores.radius",
+            format!("expected [r_min, r_max] with 0 < r_min ≤ r_max (m), found [{lo}, {hi}]"),
+        ));
+    }
+    if !(p.clearance.is_finite() && p.clearance >= 0.0) {
+        out.push(DeckIssue::new(
+            "discretization.pores.clearance",
+            format!("expected a gap ≥ 0 (m), found {}", p.clearance),
+        ));
+    }
+}
+
 /// All problems found; empty if the deck is usable.
 pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     let mut out = Vec::new();
@@ -97,6 +152,8 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
             spacing,
             horizon,
             horizon_ratio,
+            refine,
+            pores,
             ..
         } => {
             check_shape(&mut out, "discretization.shape", shape);
@@ -106,33 +163,55 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
                 *spacing,
                 "lattice spacing (m)",
             );
-            match (horizon, horizon_ratio) {
-                (Some(_), Some(_)) => out.push(DeckIssue::new(
-                    "discretization.horizon_ratio",
-                    "give `horizon` or `horizon_ratio`, not both",
-                )),
-                (None, None) => out.push(DeckIssue::new(
-                    "discretization",
-                    "missing the horizon: give `horizon` (m) or `horizon_ratio` (δ/Δx)",
-                )),
-                (Some(h), None) => {
-                    positive(&mut out, "discretization.horizon", *h, "horizon (m)");
-                    if *h > 0.0 && *spacing > 0.0 && *h < *spacing {
-                        out.push(DeckIssue::new("discretization.horizon", format!("horizon {h} m is smaller than the spacing {spacing} m (δ/Δx = {:.3}); peridynamics needs δ/Δx ≥ 1, typically 3 to 4", h / spacing)));
-                    }
-                }
-                (None, Some(r)) => {
-                    positive(
-                        &mut out,
-                        "discretization.horizon_ratio",
-                        *r,
-                        "horizon ratio δ/Δx",
-                    );
-                    if r.is_finite() && *r > 0.0 && *r < 1.0 {
-                        out.push(DeckIssue::new("discretization.horizon_ratio", format!("δ/Δx = {r} makes the horizon smaller than the spacing; expected at least 1, typically 3 to 4")));
-                    }
+            check_horizon(&mut out, *horizon, *horizon_ratio, *spacing);
+            for (k, r) in refine.iter().enumerate() {
+                let p = format!("discretization.refine[{k}]");
+                check_shape(&mut out, &format!("{p}.region"), &r.region);
+                let max = crate::discretize::multigrid::MAX_LEVEL;
+                if r.levels == 0 || r.levels > max {
+                    out.push(DeckIssue::new(
+                        &format!("{p}.levels"),
+                        format!(
+                            "expected 1 to {max} levels of refinement, found {}",
+                            r.levels
+                        ),
+                    ));
                 }
             }
+            check_pores(&mut out, pores);
+        }
+        Discretization::FreeMesh {
+            shape,
+            size,
+            horizon,
+            horizon_ratio,
+            pores,
+            ..
+        }
+        | Discretization::Nbnug {
+            shape,
+            size,
+            horizon,
+            horizon_ratio,
+            pores,
+            ..
+        } => {
+            if d != 2 {
+                out.push(DeckIssue::new(
+                    "discretization.type",
+                    "free meshes and NB-NUG grids are 2D; in 3D use a lattice (with `refine`) or a Gmsh mesh",
+                ));
+            }
+            check_shape(&mut out, "discretization.shape", shape);
+            positive(&mut out, "discretization.size", *size, "element size (m)");
+            check_horizon(&mut out, *horizon, *horizon_ratio, *size);
+            if let Discretization::Nbnug {
+                padding: Some(p), ..
+            } = &deck.discretization
+            {
+                positive(&mut out, "discretization.padding", *p, "box padding (m)");
+            }
+            check_pores(&mut out, pores);
         }
         Discretization::PointCloud { file, horizon, .. }
         | Discretization::Gmsh { file, horizon, .. } => {
@@ -189,7 +268,10 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     for (k, b) in deck.blocks.iter().enumerate() {
         if let Some(region) = &b.region {
             check_shape(&mut out, &format!("blocks[{k}].region"), region);
-        } else if matches!(deck.discretization, Discretization::Lattice { .. }) {
+        } else if !matches!(
+            deck.discretization,
+            Discretization::PointCloud { .. } | Discretization::Gmsh { .. }
+        ) {
             out.push(DeckIssue::new(
                 &format!("blocks[{k}]"),
                 "a block needs a `region` (only a point cloud or a Gmsh mesh can give block ids without one)",
