@@ -118,7 +118,7 @@ fn pores_are_cut_and_repeat_with_their_seed() {
 fn bad_grids_are_refused_with_their_key() {
     for (discretization, key, words) in [
         (
-            format!("type = \"nbnug\"\nshape = {{ type = \"disk\", center = [0.0, 0.0], radius = 1.0 }}\nsize = 0.1\nhorizon_ratio = 3.0"),
+            "type = \"nbnug\"\nshape = { type = \"disk\", center = [0.0, 0.0], radius = 1.0 }\nsize = 0.1\nhorizon_ratio = 3.0".to_string(),
             "discretization.shape",
             "rectangle",
         ),
@@ -133,7 +133,7 @@ fn bad_grids_are_refused_with_their_key() {
             "1 to 8",
         ),
         (
-            format!("type = \"nbnug\"\nshape = {{ type = \"difference\", base = {{ type = \"rectangle\", min = [0.0, 0.0], max = [0.02, 0.01] }}, subtract = [{{ type = \"disk\", center = [0.001, 0.005], radius = 0.002 }}] }}\nsize = 2.5e-4\nhorizon_ratio = 3.0"),
+            "type = \"nbnug\"\nshape = { type = \"difference\", base = { type = \"rectangle\", min = [0.0, 0.0], max = [0.02, 0.01] }, subtract = [{ type = \"disk\", center = [0.001, 0.005], radius = 0.002 }] }\nsize = 2.5e-4\nhorizon_ratio = 3.0".to_string(),
             "discretization.shape",
             "inside the plate",
         ),

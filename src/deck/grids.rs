@@ -24,10 +24,7 @@ pub fn pores_of(shape: &Shape, dim: usize, p: &PoresDeck) -> Result<Vec<Pore>, S
         clearance: p.clearance,
         seed: p.seed,
     })
-    .map(|pores| {
-        debug_assert!(pores.iter().all(|q| q.center.len() == dim));
-        pores
-    })
+    .inspect(|pores| debug_assert!(pores.iter().all(|q| q.center.len() == dim)))
 }
 
 /// `shape` with the pores cut out.
