@@ -53,28 +53,33 @@ pub enum ZeroEnergyControl {
 /// Ratio det K / (tr K / D)^D below which a shape tensor counts as singular.
 const SINGULAR: f64 = 1e-8;
 
-/// Point state: during the pre-pass the sums K and Σ ω η⊗ξ w (η = Y − ξ); after it,
-/// A = P K⁻¹, the displacement gradient H = F − I and the stabilisation tensor C1 (zero for a
-/// detached node).
+/// Point state: during the pre-pass the sums K (in `b`) and Σ ω η⊗ξ w (in `h`; η = Y − ξ);
+/// after it, B = A − C1 H with A = P K⁻¹ (Eq. 8), the stabilisation tensor C1 (Eqs. 12–15)
+/// and the displacement gradient H = F − I. A detached node has all three zero: no force
+/// state and no energy of its own.
+///
+/// With B, a half is ω (A ξ + C1 z) = ω (B ξ + C1 η) since z = Y − F ξ = η − H ξ (Eq. 14): the
+/// force pass needs no z per bond and reads only B and C1, which come first (`repr(C)`) so
+/// that the gather of a neighbour's matrices touches as few cache lines as possible. H is
+/// kept for the energy (W of E(H), and z for the stabilisation energy).
 ///
 /// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
 /// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
 /// relative round-off of ε_machine/|H| on small strains.
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 pub struct CorrespondencePoint<const D: usize> {
-    pub a: SMatrix<f64, D, D>,
-    pub h: SMatrix<f64, D, D>,
+    pub b: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
-    pub detached: bool,
+    pub h: SMatrix<f64, D, D>,
 }
 
 impl<const D: usize> Default for CorrespondencePoint<D> {
     fn default() -> Self {
         CorrespondencePoint {
-            a: SMatrix::zeros(),
-            h: SMatrix::zeros(),
+            b: SMatrix::zeros(),
             c1: SMatrix::zeros(),
-            detached: false,
+            h: SMatrix::zeros(),
         }
     }
 }
@@ -164,8 +169,10 @@ impl Correspondence {
     }
 
     /// Node i's force state on a bond seen from i (ξ, Y), times ω (the weights φ μ are
-    /// applied by the caller): ω (A ξ + C1 z), z = Y − F ξ = (Y − ξ) − H ξ, with C1 the
-    /// node's stabilisation tensor (Wan's G C:K⁻¹ or Silling's G c_s I; zero without control).
+    /// applied by the caller): ω (A ξ + C1 z) with z = Y − F ξ = η − H ξ (Eq. 14), written
+    /// ω (B ξ + C1 η) with B = A − C1 H and η = Y − ξ; C1 is the node's stabilisation tensor
+    /// (Wan's G C:K⁻¹ or Silling's G c_s I; zero without control). A detached node has B and
+    /// C1 zero.
     #[inline(always)]
     fn half<const D: usize>(
         &self,
@@ -175,13 +182,20 @@ impl Correspondence {
         y: &Vector<D>,
         ref_len: f64,
     ) -> Vector<D> {
-        if p.detached {
-            return Vector::zeros();
-        }
-        let omega = self.omega(i, ref_len);
+        self.linear_half(p, xi, &(y - xi)) * self.omega(i, ref_len)
+    }
+
+    /// B ξ + C1 η (the C1 term only with zero-energy control).
+    #[inline(always)]
+    fn linear_half<const D: usize>(
+        &self,
+        p: &CorrespondencePoint<D>,
+        xi: &Vector<D>,
+        eta: &Vector<D>,
+    ) -> Vector<D> {
         match self.control {
-            ZeroEnergyControl::None => (p.a * xi) * omega,
-            _ => (p.a * xi + p.c1 * Self::z(p, xi, y)) * omega,
+            ZeroEnergyControl::None => p.b * xi,
+            _ => p.b * xi + p.c1 * eta,
         }
     }
 
@@ -230,6 +244,7 @@ impl<const D: usize> Material<D> for Correspondence {
     const NEEDS_PREPASS: bool = true;
     const CENTRAL: bool = false;
     const NEEDS_XI: bool = true;
+    const FACTORED_OWN_HALF: bool = true;
 
     /// Checks every shape tensor with all bonds intact.
     fn setup(
@@ -241,21 +256,21 @@ impl<const D: usize> Material<D> for Correspondence {
         self.check_shape_tensors(body, bonds, quad, |_| true)
     }
 
-    /// K += ω ξ⊗ξ w and N += ω η⊗ξ w (η = Y − ξ), kept in `a` and `h` until `finish_point`.
+    /// K += ω ξ⊗ξ w (Eq. 7) and N += ω η⊗ξ w (η = Y − ξ; Eq. 6 less K), kept in `b` and `h`
+    /// until `finish_point`.
     #[inline(always)]
     fn accumulate(&self, i: usize, acc: &mut Self::Point, b: &BondGeom<D>) {
         let w = self.omega(i, b.ref_len) * b.weight();
         let xt = b.xi.transpose();
-        acc.a += (b.xi * w) * xt;
+        acc.b += (b.xi * w) * xt;
         acc.h += ((b.y - b.xi) * w) * xt;
     }
 
+    /// K⁻¹, H = N K⁻¹, F = I + H, P = F S (Eq. 9), A = P K⁻¹ (Eq. 8), C1 (Eqs. 12–15 or
+    /// Silling 2017) and B = A − C1 H; a detached node gets the zero point state.
     fn finish_point(&self, i: usize, acc: Self::Point) -> Self::Point {
-        let (k, n) = (acc.a, acc.h);
-        let detached = CorrespondencePoint {
-            detached: true,
-            ..Default::default()
-        };
+        let (k, n) = (acc.b, acc.h);
+        let detached = CorrespondencePoint::default();
         if Self::singular(&k) {
             return detached;
         }
@@ -270,6 +285,7 @@ impl<const D: usize> Material<D> for Correspondence {
         }
         // P = J σ F⁻ᵀ with σ = J⁻¹ F S Fᵀ, S = C:E: P = F S (see the module notes).
         let p = f * self.stress(&Self::strain(&h));
+        let a = p * k_inv;
         let c1 = match self.control {
             ZeroEnergyControl::Wan { coefficient } => {
                 (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
@@ -282,12 +298,11 @@ impl<const D: usize> Material<D> for Correspondence {
             }
             ZeroEnergyControl::None => SMatrix::zeros(),
         };
-        CorrespondencePoint {
-            a: p * k_inv,
-            h,
-            c1,
-            detached: false,
-        }
+        let b = match self.control {
+            ZeroEnergyControl::None => a,
+            _ => a - c1 * h,
+        };
+        CorrespondencePoint { b, c1, h }
     }
 
     fn force_state(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
@@ -315,22 +330,46 @@ impl<const D: usize> Material<D> for Correspondence {
             - self.half(j, pj, &nxi, &ny, b.ref_len) * (b.phi_ji * b.mu_ji)
     }
 
+    /// ω_i φ_ij μ_ij V_j: node i's half of the pair force is this times B_i ξ + C1_i η.
+    #[inline(always)]
+    fn own_half_weight(&self, i: usize, b: &BondGeom<D>) -> f64 {
+        self.omega(i, b.ref_len) * b.weight()
+    }
+
+    /// −T_j⟨−ξ⟩ φ_ji μ_ji V_j = ω_j φ_ji μ_ji V_j (B_j ξ + C1_j η), since node j sees the bond
+    /// as (−ξ, −η).
+    #[inline(always)]
+    fn other_half(&self, _i: usize, j: usize, b: &BondGeom<D>, pj: &Self::Point) -> Vector<D> {
+        let s = self.omega(j, b.ref_len) * (b.phi_ji * b.mu_ji * b.vol_j);
+        self.linear_half(pj, &b.xi, &(b.y - b.xi)) * s
+    }
+
+    /// Σ_j s_ij (B_i ξ + C1_i η) = B_i Σ s ξ + C1_i Σ s η.
+    #[inline(always)]
+    fn own_half_force(
+        &self,
+        _i: usize,
+        pi: &Self::Point,
+        sum_xi: &Vector<D>,
+        sum_eta: &Vector<D>,
+    ) -> Vector<D> {
+        self.linear_half(pi, sum_xi, sum_eta)
+    }
+
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S
     /// because Σ ω z⊗ξ w = 0 by the definition of F (Wan's and Silling's forms alike).
     fn bond_energy(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
-        if p.detached || self.control == ZeroEnergyControl::None {
+        if self.control == ZeroEnergyControl::None {
             return 0.0;
         }
+        // A detached node has C1 = 0: no energy.
         let z = Self::z(p, &b.xi, &b.y);
         0.5 * self.omega(i, b.ref_len) * z.dot(&(p.c1 * z)) * b.weight()
     }
 
     /// W = ½ E:C:E of the node's F (exact for P = F C:E), plus the stabilisation energy of its
-    /// bonds.
+    /// bonds (zero for a detached node, whose H and C1 are zero).
     fn point_energy(&self, _i: usize, p: &Self::Point, bond_sum: f64) -> f64 {
-        if p.detached {
-            return 0.0;
-        }
         let e = Self::strain(&p.h);
         0.5 * self.stress(&e).dot(&e) + bond_sum
     }
