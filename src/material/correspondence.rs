@@ -21,8 +21,11 @@
 //! its neighbours' halves of its bonds still act on it. At set-up, with every bond intact,
 //! such a node is an error that names it.
 
+use super::simd::NodeBonds;
+use super::simd_correspondence::{self, CorrespondenceLaw};
 use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
 use crate::body::Body;
+use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
 use crate::math::{determinant, inverse, Vector};
 use crate::per_node::PerNode;
@@ -99,6 +102,8 @@ pub struct Correspondence {
     /// Lamé constants of the plane condition: σ = λ tr(E) I + 2μ E.
     lambda: f64,
     mu: f64,
+    /// Reference positions, flat (filled by `setup`; read by the vector kernels).
+    reference: Vec<f64>,
 }
 
 impl Correspondence {
@@ -127,6 +132,7 @@ impl Correspondence {
             // κ − 2μ/D is λ in 3D and plane strain, Eν/(1 − ν²) in plane stress.
             lambda: elasticity.in_plane_bulk() - 2.0 * mu / dim,
             mu,
+            reference: Vec::new(),
         }
     }
 
@@ -160,6 +166,24 @@ impl Correspondence {
     /// ½(H + Hᵀ + HᵀH) so that no I cancels.
     fn strain<const D: usize>(h: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
         (h + h.transpose() + h.transpose() * h) * 0.5
+    }
+
+    /// The vector kernels' view of the model: 3D, one horizon, ω = 1 or δ/|ξ|, after `setup`.
+    fn kernel_law<const D: usize>(&self, nodes: usize) -> Option<CorrespondenceLaw<'_>> {
+        let PerNode::Uniform(horizon) = self.horizons else {
+            return None;
+        };
+        let inverse_influence = match self.influence {
+            Influence::Constant => false,
+            Influence::Inverse => true,
+            Influence::Gaussian => return None,
+        };
+        (D == 3 && self.reference.len() == 3 * nodes).then_some(CorrespondenceLaw {
+            reference: &self.reference,
+            horizon,
+            inverse_influence,
+            control: self.control != ZeroEnergyControl::None,
+        })
     }
 
     /// Whether a shape tensor is too close to singular to invert.
@@ -253,6 +277,11 @@ impl<const D: usize> Material<D> for Correspondence {
         bonds: &Bonds,
         quad: &Quadrature,
     ) -> Result<(), PointError> {
+        self.reference = body
+            .positions
+            .iter()
+            .flat_map(|x| x.iter().copied())
+            .collect();
         self.check_shape_tensors(body, bonds, quad, |_| true)
     }
 
@@ -354,6 +383,51 @@ impl<const D: usize> Material<D> for Correspondence {
         sum_eta: &Vector<D>,
     ) -> Vector<D> {
         self.linear_half(pi, sum_xi, sum_eta)
+    }
+
+    /// K and N on four bonds at a time (`simd_correspondence`), then `finish_point`.
+    unsafe fn vector_prepass(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+    ) -> Option<(Self::Point, u64)> {
+        let law = self.kernel_law::<D>(nb.current.len() / 3)?;
+        // SAFETY: forwarded from the caller; `reference` has one position per node.
+        let (k, n, broke) = unsafe { simd_correspondence::correspondence_sums(nb, &law, w) };
+        let acc = CorrespondencePoint {
+            b: SMatrix::from_column_slice(&k),
+            c1: SMatrix::zeros(),
+            h: SMatrix::from_column_slice(&n),
+        };
+        Some((Material::<D>::finish_point(self, nb.i, acc), broke))
+    }
+
+    /// The other halves and the own-half sums on four bonds at a time, then
+    /// `own_half_force`, as the engine's factored loop.
+    unsafe fn vector_force(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+        points: &[Self::Point],
+    ) -> Option<([f64; 3], u64)> {
+        let law = self.kernel_law::<D>(points.len())?;
+        let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
+        // SAFETY: `CorrespondencePoint` is `repr(C)` of three D×D f64 matrices (B, C1, H),
+        // `stride` f64 each, with no padding.
+        let flat = unsafe {
+            std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
+        };
+        // SAFETY: forwarded from the caller.
+        let (other, sx, se) =
+            unsafe { simd_correspondence::correspondence_force(nb, &law, w, flat, stride) };
+        let own = Material::<D>::own_half_force(
+            self,
+            nb.i,
+            &points[nb.i],
+            &Vector::<D>::from_fn(|a, _| sx[a]),
+            &Vector::<D>::from_fn(|a, _| se[a]),
+        );
+        Some(([other[0] + own[0], other[1] + own[1], other[2] + own[2]], 0))
     }
 
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S
