@@ -92,7 +92,30 @@ mod avx {
     use crate::material::simd::tail;
     use std::arch::x86_64::*;
 
-    /// Reference bond vectors ξ of bonds b..b+4 (masked loads: never past a node).
+    /// Bond vectors of bonds b..b+4 in the flat positions `base` (reference or current),
+    /// less the node's own position `origin` (masked loads: never past a node).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn rows(
+        nb: &NodeBonds,
+        base: *const f64,
+        b: usize,
+        origin: [__m256d; 3],
+    ) -> [__m256d; 3] {
+        let mask = _mm256_set_epi64x(0, -1, -1, -1);
+        let row =
+            |lane: usize| _mm256_maskload_pd(base.add(3 * nb.neighbors[b + lane] as usize), mask);
+        let (r0, r1, r2, r3) = (row(0), row(1), row(2), row(3));
+        let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+        let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+        [
+            _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t0, t2), origin[0]),
+            _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t1, t3), origin[1]),
+            _mm256_sub_pd(_mm256_permute2f128_pd::<0x31>(t0, t2), origin[2]),
+        ]
+    }
+
+    /// Reference bond vectors ξ of bonds b..b+4.
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn reference_vectors(
@@ -101,18 +124,7 @@ mod avx {
         b: usize,
         xi: [__m256d; 3],
     ) -> [__m256d; 3] {
-        let base = law.reference.as_ptr();
-        let mask = _mm256_set_epi64x(0, -1, -1, -1);
-        let row =
-            |lane: usize| _mm256_maskload_pd(base.add(3 * nb.neighbors[b + lane] as usize), mask);
-        let (r0, r1, r2, r3) = (row(0), row(1), row(2), row(3));
-        let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-        let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
-        [
-            _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t0, t2), xi[0]),
-            _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t1, t3), xi[1]),
-            _mm256_sub_pd(_mm256_permute2f128_pd::<0x31>(t0, t2), xi[2]),
-        ]
+        rows(nb, law.reference.as_ptr(), b, xi)
     }
 
     /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V) with μ = 1.
@@ -258,9 +270,19 @@ mod avx {
         let mut b = 0;
         let base = points.as_ptr();
         while b + 4 <= nb.neighbors.len() {
-            let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            let keep = fail_and_keep(nb, b, len, l, &mut broke);
+            // This pass decides no failure: only |y| > 0 matters, and |y|² > 0 says the same
+            // without a square root.
+            let [dx, dy, dz] = rows(nb, nb.current.as_ptr(), b, yi);
+            let len_or_square = if nb.s0.is_none() {
+                _mm256_add_pd(
+                    _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+                    _mm256_mul_pd(dz, dz),
+                )
+            } else {
+                bond_vectors(nb, b, yi)[3]
+            };
+            let keep = fail_and_keep(nb, b, len_or_square, l, &mut broke);
             let s = weight(law, w, l, keep);
             let xi = reference_vectors(nb, law, b, xi_i);
             let eta = [
