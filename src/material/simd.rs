@@ -228,7 +228,7 @@ pub(crate) mod avx {
     /// Lanes of bonds b..b+4 that are intact, as a mask.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn intact(status: &[u8], b: usize) -> __m256d {
+    pub(crate) unsafe fn intact(status: &[u8], b: usize) -> __m256d {
         let st = u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
         _mm256_castsi256_pd(_mm256_cmpeq_epi64(
             _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),

@@ -88,7 +88,7 @@ pub unsafe fn correspondence_force(
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::*;
-    use crate::material::simd::avx::{bond_vectors, fail_and_keep, own_position, phi, sum};
+    use crate::material::simd::avx::{bond_vectors, fail_and_keep, intact, own_position, phi, sum};
     use crate::material::simd::tail;
     use std::arch::x86_64::*;
 
@@ -273,16 +273,20 @@ mod avx {
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             // This pass decides no failure: only |y| > 0 matters, and |y|² > 0 says the same
             // without a square root.
+            // (`fail_and_keep` without a critical stretch: intact and of non-zero length.)
             let [dx, dy, dz] = rows(nb, nb.current.as_ptr(), b, yi);
-            let len_or_square = if nb.s0.is_none() {
-                _mm256_add_pd(
+            let keep = if nb.s0.is_none() {
+                let square = _mm256_add_pd(
                     _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
                     _mm256_mul_pd(dz, dz),
+                );
+                _mm256_and_pd(
+                    intact(nb.status, b),
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(square, _mm256_setzero_pd()),
                 )
             } else {
-                bond_vectors(nb, b, yi)[3]
+                fail_and_keep(nb, b, bond_vectors(nb, b, yi)[3], l, &mut broke)
             };
-            let keep = fail_and_keep(nb, b, len_or_square, l, &mut broke);
             let s = weight(law, w, l, keep);
             let xi = reference_vectors(nb, law, b, xi_i);
             let eta = [
