@@ -81,3 +81,28 @@ fn vector_kernels_match_the_generic_loop() {
         compare("lps", lps(dim, 70e9, 0.3, 3e-3), rule);
     }
 }
+
+#[test]
+fn correspondence_kernels_match_the_generic_loop() {
+    use peridyn::material::correspondence::ZeroEnergyControl;
+    use peridyn::material::Influence;
+    let dim = Dimensionality::ThreeD;
+    for rule in [PartialVolume::Hhb, PartialVolume::None] {
+        for (name, control) in [
+            (
+                "correspondence wan",
+                ZeroEnergyControl::Wan { coefficient: 1.0 },
+            ),
+            (
+                "correspondence silling",
+                ZeroEnergyControl::Silling { coefficient: 0.5 },
+            ),
+            ("correspondence bare", ZeroEnergyControl::None),
+        ] {
+            let mut m = correspondence(dim, 70e9, 0.25, 3e-3, control);
+            compare(name, m.clone(), rule);
+            m.influence = Influence::Inverse;
+            compare(&format!("{name} inverse ω"), m, rule);
+        }
+    }
+}

@@ -21,8 +21,11 @@
 //! its neighbours' halves of its bonds still act on it. At set-up, with every bond intact,
 //! such a node is an error that names it.
 
+use super::simd::NodeBonds;
+use super::simd_correspondence::{self, CorrespondenceLaw};
 use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
 use crate::body::Body;
+use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
 use crate::math::{determinant, inverse, Vector};
 use crate::per_node::PerNode;
@@ -53,28 +56,33 @@ pub enum ZeroEnergyControl {
 /// Ratio det K / (tr K / D)^D below which a shape tensor counts as singular.
 const SINGULAR: f64 = 1e-8;
 
-/// Point state: during the pre-pass the sums K and Σ ω η⊗ξ w (η = Y − ξ); after it,
-/// A = P K⁻¹, the displacement gradient H = F − I and the stabilisation tensor C1 (zero for a
-/// detached node).
+/// Point state: during the pre-pass the sums K (in `b`) and Σ ω η⊗ξ w (in `h`; η = Y − ξ);
+/// after it, B = A − C1 H with A = P K⁻¹ (Eq. 8), the stabilisation tensor C1 (Eqs. 12–15)
+/// and the displacement gradient H = F − I. A detached node has all three zero: no force
+/// state and no energy of its own.
+///
+/// With B, a half is ω (A ξ + C1 z) = ω (B ξ + C1 η) since z = Y − F ξ = η − H ξ (Eq. 14): the
+/// force pass needs no z per bond and reads only B and C1, which come first (`repr(C)`) so
+/// that the gather of a neighbour's matrices touches as few cache lines as possible. H is
+/// kept for the energy (W of E(H), and z for the stabilisation energy).
 ///
 /// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
 /// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
 /// relative round-off of ε_machine/|H| on small strains.
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 pub struct CorrespondencePoint<const D: usize> {
-    pub a: SMatrix<f64, D, D>,
-    pub h: SMatrix<f64, D, D>,
+    pub b: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
-    pub detached: bool,
+    pub h: SMatrix<f64, D, D>,
 }
 
 impl<const D: usize> Default for CorrespondencePoint<D> {
     fn default() -> Self {
         CorrespondencePoint {
-            a: SMatrix::zeros(),
-            h: SMatrix::zeros(),
+            b: SMatrix::zeros(),
             c1: SMatrix::zeros(),
-            detached: false,
+            h: SMatrix::zeros(),
         }
     }
 }
@@ -94,6 +102,8 @@ pub struct Correspondence {
     /// Lamé constants of the plane condition: σ = λ tr(E) I + 2μ E.
     lambda: f64,
     mu: f64,
+    /// Reference positions, flat (filled by `setup`; read by the vector kernels).
+    reference: Vec<f64>,
 }
 
 impl Correspondence {
@@ -122,6 +132,7 @@ impl Correspondence {
             // κ − 2μ/D is λ in 3D and plane strain, Eν/(1 − ν²) in plane stress.
             lambda: elasticity.in_plane_bulk() - 2.0 * mu / dim,
             mu,
+            reference: Vec::new(),
         }
     }
 
@@ -157,6 +168,24 @@ impl Correspondence {
         (h + h.transpose() + h.transpose() * h) * 0.5
     }
 
+    /// The vector kernels' view of the model: 3D, one horizon, ω = 1 or δ/|ξ|, after `setup`.
+    fn kernel_law<const D: usize>(&self, nodes: usize) -> Option<CorrespondenceLaw<'_>> {
+        let PerNode::Uniform(horizon) = self.horizons else {
+            return None;
+        };
+        let inverse_influence = match self.influence {
+            Influence::Constant => false,
+            Influence::Inverse => true,
+            Influence::Gaussian => return None,
+        };
+        (D == 3 && self.reference.len() == 3 * nodes).then_some(CorrespondenceLaw {
+            reference: &self.reference,
+            horizon,
+            inverse_influence,
+            control: self.control != ZeroEnergyControl::None,
+        })
+    }
+
     /// Whether a shape tensor is too close to singular to invert.
     fn singular<const D: usize>(k: &SMatrix<f64, D, D>) -> bool {
         let scale = (k.trace() / D as f64).powi(D as i32);
@@ -164,8 +193,10 @@ impl Correspondence {
     }
 
     /// Node i's force state on a bond seen from i (ξ, Y), times ω (the weights φ μ are
-    /// applied by the caller): ω (A ξ + C1 z), z = Y − F ξ = (Y − ξ) − H ξ, with C1 the
-    /// node's stabilisation tensor (Wan's G C:K⁻¹ or Silling's G c_s I; zero without control).
+    /// applied by the caller): ω (A ξ + C1 z) with z = Y − F ξ = η − H ξ (Eq. 14), written
+    /// ω (B ξ + C1 η) with B = A − C1 H and η = Y − ξ; C1 is the node's stabilisation tensor
+    /// (Wan's G C:K⁻¹ or Silling's G c_s I; zero without control). A detached node has B and
+    /// C1 zero.
     #[inline(always)]
     fn half<const D: usize>(
         &self,
@@ -175,13 +206,20 @@ impl Correspondence {
         y: &Vector<D>,
         ref_len: f64,
     ) -> Vector<D> {
-        if p.detached {
-            return Vector::zeros();
-        }
-        let omega = self.omega(i, ref_len);
+        self.linear_half(p, xi, &(y - xi)) * self.omega(i, ref_len)
+    }
+
+    /// B ξ + C1 η (the C1 term only with zero-energy control).
+    #[inline(always)]
+    fn linear_half<const D: usize>(
+        &self,
+        p: &CorrespondencePoint<D>,
+        xi: &Vector<D>,
+        eta: &Vector<D>,
+    ) -> Vector<D> {
         match self.control {
-            ZeroEnergyControl::None => (p.a * xi) * omega,
-            _ => (p.a * xi + p.c1 * Self::z(p, xi, y)) * omega,
+            ZeroEnergyControl::None => p.b * xi,
+            _ => p.b * xi + p.c1 * eta,
         }
     }
 
@@ -230,6 +268,7 @@ impl<const D: usize> Material<D> for Correspondence {
     const NEEDS_PREPASS: bool = true;
     const CENTRAL: bool = false;
     const NEEDS_XI: bool = true;
+    const FACTORED_OWN_HALF: bool = true;
 
     /// Checks every shape tensor with all bonds intact.
     fn setup(
@@ -238,24 +277,29 @@ impl<const D: usize> Material<D> for Correspondence {
         bonds: &Bonds,
         quad: &Quadrature,
     ) -> Result<(), PointError> {
+        self.reference = body
+            .positions
+            .iter()
+            .flat_map(|x| x.iter().copied())
+            .collect();
         self.check_shape_tensors(body, bonds, quad, |_| true)
     }
 
-    /// K += ω ξ⊗ξ w and N += ω η⊗ξ w (η = Y − ξ), kept in `a` and `h` until `finish_point`.
+    /// K += ω ξ⊗ξ w (Eq. 7) and N += ω η⊗ξ w (η = Y − ξ; Eq. 6 less K), kept in `b` and `h`
+    /// until `finish_point`.
     #[inline(always)]
     fn accumulate(&self, i: usize, acc: &mut Self::Point, b: &BondGeom<D>) {
         let w = self.omega(i, b.ref_len) * b.weight();
         let xt = b.xi.transpose();
-        acc.a += (b.xi * w) * xt;
+        acc.b += (b.xi * w) * xt;
         acc.h += ((b.y - b.xi) * w) * xt;
     }
 
+    /// K⁻¹, H = N K⁻¹, F = I + H, P = F S (Eq. 9), A = P K⁻¹ (Eq. 8), C1 (Eqs. 12–15 or
+    /// Silling 2017) and B = A − C1 H; a detached node gets the zero point state.
     fn finish_point(&self, i: usize, acc: Self::Point) -> Self::Point {
-        let (k, n) = (acc.a, acc.h);
-        let detached = CorrespondencePoint {
-            detached: true,
-            ..Default::default()
-        };
+        let (k, n) = (acc.b, acc.h);
+        let detached = CorrespondencePoint::default();
         if Self::singular(&k) {
             return detached;
         }
@@ -270,6 +314,7 @@ impl<const D: usize> Material<D> for Correspondence {
         }
         // P = J σ F⁻ᵀ with σ = J⁻¹ F S Fᵀ, S = C:E: P = F S (see the module notes).
         let p = f * self.stress(&Self::strain(&h));
+        let a = p * k_inv;
         let c1 = match self.control {
             ZeroEnergyControl::Wan { coefficient } => {
                 (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
@@ -282,12 +327,11 @@ impl<const D: usize> Material<D> for Correspondence {
             }
             ZeroEnergyControl::None => SMatrix::zeros(),
         };
-        CorrespondencePoint {
-            a: p * k_inv,
-            h,
-            c1,
-            detached: false,
-        }
+        let b = match self.control {
+            ZeroEnergyControl::None => a,
+            _ => a - c1 * h,
+        };
+        CorrespondencePoint { b, c1, h }
     }
 
     fn force_state(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
@@ -315,22 +359,91 @@ impl<const D: usize> Material<D> for Correspondence {
             - self.half(j, pj, &nxi, &ny, b.ref_len) * (b.phi_ji * b.mu_ji)
     }
 
+    /// ω_i φ_ij μ_ij V_j: node i's half of the pair force is this times B_i ξ + C1_i η.
+    #[inline(always)]
+    fn own_half_weight(&self, i: usize, b: &BondGeom<D>) -> f64 {
+        self.omega(i, b.ref_len) * b.weight()
+    }
+
+    /// −T_j⟨−ξ⟩ φ_ji μ_ji V_j = ω_j φ_ji μ_ji V_j (B_j ξ + C1_j η), since node j sees the bond
+    /// as (−ξ, −η).
+    #[inline(always)]
+    fn other_half(&self, _i: usize, j: usize, b: &BondGeom<D>, pj: &Self::Point) -> Vector<D> {
+        let s = self.omega(j, b.ref_len) * (b.phi_ji * b.mu_ji * b.vol_j);
+        self.linear_half(pj, &b.xi, &(b.y - b.xi)) * s
+    }
+
+    /// Σ_j s_ij (B_i ξ + C1_i η) = B_i Σ s ξ + C1_i Σ s η.
+    #[inline(always)]
+    fn own_half_force(
+        &self,
+        _i: usize,
+        pi: &Self::Point,
+        sum_xi: &Vector<D>,
+        sum_eta: &Vector<D>,
+    ) -> Vector<D> {
+        self.linear_half(pi, sum_xi, sum_eta)
+    }
+
+    /// K and N on four bonds at a time (`simd_correspondence`), then `finish_point`.
+    unsafe fn vector_prepass(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+    ) -> Option<(Self::Point, u64)> {
+        let law = self.kernel_law::<D>(nb.current.len() / 3)?;
+        // SAFETY: forwarded from the caller; `reference` has one position per node.
+        let (k, n, broke) = unsafe { simd_correspondence::correspondence_sums(nb, &law, w) };
+        let acc = CorrespondencePoint {
+            b: SMatrix::from_column_slice(&k),
+            c1: SMatrix::zeros(),
+            h: SMatrix::from_column_slice(&n),
+        };
+        Some((Material::<D>::finish_point(self, nb.i, acc), broke))
+    }
+
+    /// The other halves and the own-half sums on four bonds at a time, then
+    /// `own_half_force`, as the engine's factored loop.
+    unsafe fn vector_force(
+        &self,
+        nb: &mut NodeBonds,
+        w: &UniformWeights,
+        points: &[Self::Point],
+    ) -> Option<([f64; 3], u64)> {
+        let law = self.kernel_law::<D>(points.len())?;
+        let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
+        // SAFETY: `CorrespondencePoint` is `repr(C)` of three D×D f64 matrices (B, C1, H),
+        // `stride` f64 each, with no padding.
+        let flat = unsafe {
+            std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
+        };
+        // SAFETY: forwarded from the caller.
+        let (other, sx, se) =
+            unsafe { simd_correspondence::correspondence_force(nb, &law, w, flat, stride) };
+        let own = Material::<D>::own_half_force(
+            self,
+            nb.i,
+            &points[nb.i],
+            &Vector::<D>::from_fn(|a, _| sx[a]),
+            &Vector::<D>::from_fn(|a, _| se[a]),
+        );
+        Some(([other[0] + own[0], other[1] + own[1], other[2] + own[2]], 0))
+    }
+
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S
     /// because Σ ω z⊗ξ w = 0 by the definition of F (Wan's and Silling's forms alike).
     fn bond_energy(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
-        if p.detached || self.control == ZeroEnergyControl::None {
+        if self.control == ZeroEnergyControl::None {
             return 0.0;
         }
+        // A detached node has C1 = 0: no energy.
         let z = Self::z(p, &b.xi, &b.y);
         0.5 * self.omega(i, b.ref_len) * z.dot(&(p.c1 * z)) * b.weight()
     }
 
     /// W = ½ E:C:E of the node's F (exact for P = F C:E), plus the stabilisation energy of its
-    /// bonds.
+    /// bonds (zero for a detached node, whose H and C1 are zero).
     fn point_energy(&self, _i: usize, p: &Self::Point, bond_sum: f64) -> f64 {
-        if p.detached {
-            return 0.0;
-        }
         let e = Self::strain(&p.h);
         0.5 * self.stress(&e).dot(&e) + bond_sum
     }

@@ -16,6 +16,7 @@ pub mod mixed;
 pub mod mixed_central;
 pub mod pmb;
 pub mod simd;
+pub mod simd_correspondence;
 
 pub use calibration::{Dimensionality, Elasticity};
 pub use correspondence::Correspondence;
@@ -123,6 +124,16 @@ pub trait Material<const D: usize>: Sync + Send {
     const CENTRAL: bool = true;
     /// The bond loops fill `BondGeom::xi` (the reference bond vector).
     const NEEDS_XI: bool = false;
+    /// Non-central models whose own half factors through matrices of node i alone: the own
+    /// half of the force density, V_j φ_ij μ_ij T_i⟨ξ⟩, is s_ij (B_i ξ + C_i η) with η = y − ξ
+    /// and a scalar s_ij per bond (`own_half_weight`). The engine then sums s ξ and s η over
+    /// i's family and applies i's matrices once (`own_half_force`); per bond it evaluates only
+    /// the other half (`other_half`). The sum order is fixed per node, so results stay
+    /// deterministic, but they differ from the per-bond `pair_force` sum by round-off.
+    ///
+    /// Damage laws that record the work of each pair force (`DamageLaw::ON_WORK`) need the
+    /// full pair force per bond: with them the engine uses `pair_force` regardless.
+    const FACTORED_OWN_HALF: bool = false;
 
     /// Per-node constants that depend on the families (LPS weighted volume m); called once
     /// before the run, with all bonds intact. Fails, naming the node, when a node cannot be
@@ -189,6 +200,38 @@ pub trait Material<const D: usize>: Sync + Send {
         pj: &Self::Point,
     ) -> Vector<D> {
         bond.y * self.pair_force_per_length(i, j, bond, pi, pj)
+    }
+
+    /// `FACTORED_OWN_HALF` models: the scalar s_ij with V_j φ_ij μ_ij T_i⟨ξ⟩ = s_ij (B_i ξ + C_i η).
+    #[inline(always)]
+    fn own_half_weight(&self, _i: usize, _bond: &BondGeom<D>) -> f64 {
+        unimplemented!("own_half_weight of a model without FACTORED_OWN_HALF")
+    }
+
+    /// `FACTORED_OWN_HALF` models: the other half of the force density on node i,
+    /// −T_j⟨−ξ⟩ φ_ji μ_ji V_j, so that `pair_force` × V_j is the own half plus this.
+    #[inline(always)]
+    fn other_half(
+        &self,
+        _i: usize,
+        _j: usize,
+        _bond: &BondGeom<D>,
+        _pj: &Self::Point,
+    ) -> Vector<D> {
+        unimplemented!("other_half of a model without FACTORED_OWN_HALF")
+    }
+
+    /// `FACTORED_OWN_HALF` models: node i's own halves summed over its family,
+    /// B_i Σ s ξ + C_i Σ s η, from `sum_xi` = Σ s ξ and `sum_eta` = Σ s η.
+    #[inline(always)]
+    fn own_half_force(
+        &self,
+        _i: usize,
+        _pi: &Self::Point,
+        _sum_xi: &Vector<D>,
+        _sum_eta: &Vector<D>,
+    ) -> Vector<D> {
+        unimplemented!("own_half_force of a model without FACTORED_OWN_HALF")
     }
 
     /// Energy contribution of a bond of node i (before the point-level finish).

@@ -83,7 +83,11 @@ fn length(d: &[f64; 3]) -> f64 {
 
 /// The scalar tail of a family: calls `f(j, |ξ|, y, |y|)` for each intact bond from `from` on,
 /// deciding failure like the lanes do. Returns the bonds broken.
-fn tail(nb: &mut NodeBonds, from: usize, mut f: impl FnMut(usize, f64, [f64; 3], f64)) -> u64 {
+pub(crate) fn tail(
+    nb: &mut NodeBonds,
+    from: usize,
+    mut f: impl FnMut(usize, f64, [f64; 3], f64),
+) -> u64 {
     let i = nb.i;
     let (xi, yi, zi) = (
         nb.current[3 * i],
@@ -196,14 +200,14 @@ pub unsafe fn lps_force(
 }
 
 #[cfg(target_arch = "x86_64")]
-mod avx {
+pub(crate) mod avx {
     use super::*;
     use std::arch::x86_64::*;
 
     /// Deformed bond vectors and lengths of bonds b..b+4 (masked loads: never past a node).
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn bond_vectors(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
+    pub(crate) unsafe fn bond_vectors(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
         let base = nb.current.as_ptr();
         let mask = _mm256_set_epi64x(0, -1, -1, -1);
         let row =
@@ -224,7 +228,7 @@ mod avx {
     /// Lanes of bonds b..b+4 that are intact, as a mask.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn intact(status: &[u8], b: usize) -> __m256d {
+    pub(crate) unsafe fn intact(status: &[u8], b: usize) -> __m256d {
         let st = u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
         _mm256_castsi256_pd(_mm256_cmpeq_epi64(
             _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),
@@ -236,7 +240,7 @@ mod avx {
     /// carry force: intact and of non-zero length.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn fail_and_keep(
+    pub(crate) unsafe fn fail_and_keep(
         nb: &mut NodeBonds,
         b: usize,
         len: __m256d,
@@ -270,7 +274,7 @@ mod avx {
     /// φ(|ξ|) of seed 000, Eq. 12, on four lanes with the scalar rule's arithmetic.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn phi(w: &UniformWeights, l: __m256d) -> __m256d {
+    pub(crate) unsafe fn phi(w: &UniformWeights, l: __m256d) -> __m256d {
         let n = &w.node;
         match w.rule {
             PartialVolume::Hhb => _mm256_min_pd(
@@ -303,7 +307,7 @@ mod avx {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn sum(v: __m256d) -> f64 {
+    pub(crate) unsafe fn sum(v: __m256d) -> f64 {
         let mut a = [0.0; 4];
         _mm256_storeu_pd(a.as_mut_ptr(), v);
         (a[0] + a[1]) + (a[2] + a[3])
@@ -311,7 +315,7 @@ mod avx {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn own_position(nb: &NodeBonds) -> [__m256d; 3] {
+    pub(crate) unsafe fn own_position(nb: &NodeBonds) -> [__m256d; 3] {
         let i = nb.i;
         [
             _mm256_set1_pd(nb.current[3 * i]),

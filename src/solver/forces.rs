@@ -424,6 +424,22 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     }
                     let pi = &points[i];
                     let mut f = Vector::<D>::zeros();
+                    if M::FACTORED_OWN_HALF && !Dm::ON_WORK {
+                        // The own halves through node i's matrices once: sum s ξ and s η
+                        // over the family, evaluate only the other half per bond.
+                        let (mut sum_xi, mut sum_eta) =
+                            (Vector::<D>::zeros(), Vector::<D>::zeros());
+                        broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
+                            let g = &v.geom;
+                            let s = material.own_half_weight(i, g);
+                            sum_xi += g.xi * s;
+                            sum_eta += (g.y - g.xi) * s;
+                            f += material.other_half(i, v.j, g, &points[v.j]);
+                            0
+                        });
+                        forces[k] = f + material.own_half_force(i, pi, &sum_xi, &sum_eta);
+                        continue;
+                    }
                     broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
                         let Visit {
                             j,
