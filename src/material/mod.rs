@@ -15,6 +15,7 @@ pub mod lps_separation;
 pub mod mixed;
 pub mod pmb;
 pub mod simd;
+pub mod simd_damage;
 
 pub use calibration::{Dimensionality, Elasticity};
 pub use correspondence::Correspondence;

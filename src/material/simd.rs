@@ -6,6 +6,7 @@
 
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::PartialVolume;
+use crate::damage::softening::UniformSoftening;
 use crate::state::{BROKEN, INTACT};
 
 /// Whether this machine can run the kernels.
@@ -31,6 +32,11 @@ pub struct NodeBonds<'a> {
     pub no_fail: &'a [bool],
     /// Critical stretch, or `None` when this pass does not decide failure.
     pub s0: Option<f64>,
+    /// A uniform softening law that this pass applies instead of a critical stretch (see
+    /// `with_softening`); only the PMB kernel implements it.
+    pub softening: Option<UniformSoftening>,
+    /// The family's history words (one per bond: the largest stretch) when `softening`.
+    pub history: &'a mut [f64],
 }
 
 impl<'a> NodeBonds<'a> {
@@ -52,7 +58,18 @@ impl<'a> NodeBonds<'a> {
             status,
             no_fail,
             s0,
+            softening: None,
+            history: &mut [],
         }
+    }
+
+    /// The same family under a uniform softening law with its history (one word per bond).
+    pub fn with_softening(mut self, law: UniformSoftening, history: &'a mut [f64]) -> Self {
+        debug_assert_eq!(history.len(), self.neighbors.len());
+        self.s0 = None;
+        self.softening = Some(law);
+        self.history = history;
+        self
     }
 }
 
@@ -77,13 +94,13 @@ pub struct LpsLaw {
 
 /// |y| of a deformed bond vector, in the order the vector lanes use.
 #[inline(always)]
-fn length(d: &[f64; 3]) -> f64 {
+pub(crate) fn length(d: &[f64; 3]) -> f64 {
     (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
 /// The scalar tail of a family: calls `f(j, |ξ|, y, |y|)` for each intact bond from `from` on,
 /// deciding failure like the lanes do. Returns the bonds broken.
-fn tail(nb: &mut NodeBonds, from: usize, mut f: impl FnMut(usize, f64, [f64; 3], f64)) -> u64 {
+pub(crate) fn tail(nb: &mut NodeBonds, from: usize, mut f: impl FnMut(usize, f64, [f64; 3], f64)) -> u64 {
     let i = nb.i;
     let (xi, yi, zi) = (
         nb.current[3 * i],
@@ -120,7 +137,7 @@ fn tail(nb: &mut NodeBonds, from: usize, mut f: impl FnMut(usize, f64, [f64; 3],
 impl PmbLaw {
     /// c(ξ) φ̄ (|y| − |ξ|) / (|ξ||y|) V, the generic loop's `pair_force_per_length × V`.
     #[inline(always)]
-    fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
+    pub(crate) fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
         let c = if self.conical {
             self.c0 * (1.0 - l / self.horizon).max(0.0)
         } else {
@@ -153,7 +170,10 @@ impl LpsLaw {
 pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
     #[cfg(target_arch = "x86_64")]
     {
-        avx::pmb_force(nb, law, w)
+        match nb.softening {
+            Some(soft) => crate::material::simd_damage::pmb_force_softening(nb, law, w, &soft),
+            None => avx::pmb_force(nb, law, w),
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     unreachable!("available() is false off x86-64")
@@ -196,14 +216,14 @@ pub unsafe fn lps_force(
 }
 
 #[cfg(target_arch = "x86_64")]
-mod avx {
+pub(crate) mod avx {
     use super::*;
     use std::arch::x86_64::*;
 
     /// Deformed bond vectors and lengths of bonds b..b+4 (masked loads: never past a node).
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn bond_vectors(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
+    pub(crate) unsafe fn bond_vectors(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
         let base = nb.current.as_ptr();
         let mask = _mm256_set_epi64x(0, -1, -1, -1);
         let row =
@@ -224,7 +244,7 @@ mod avx {
     /// Lanes of bonds b..b+4 that are intact, as a mask.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn intact(status: &[u8], b: usize) -> __m256d {
+    pub(crate) unsafe fn intact(status: &[u8], b: usize) -> __m256d {
         let st = u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
         _mm256_castsi256_pd(_mm256_cmpeq_epi64(
             _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),
@@ -270,7 +290,7 @@ mod avx {
     /// φ(|ξ|) of seed 000, Eq. 12, on four lanes with the scalar rule's arithmetic.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn phi(w: &UniformWeights, l: __m256d) -> __m256d {
+    pub(crate) unsafe fn phi(w: &UniformWeights, l: __m256d) -> __m256d {
         let n = &w.node;
         match w.rule {
             PartialVolume::Hhb => _mm256_min_pd(
@@ -294,7 +314,7 @@ mod avx {
     /// acc += coef · (dx, dy, dz) on the lanes in `keep`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn add_force(acc: &mut [__m256d; 3], coef: __m256d, keep: __m256d, d: [__m256d; 3]) {
+    pub(crate) unsafe fn add_force(acc: &mut [__m256d; 3], coef: __m256d, keep: __m256d, d: [__m256d; 3]) {
         let coef = _mm256_and_pd(coef, keep);
         for a in 0..3 {
             acc[a] = _mm256_add_pd(acc[a], _mm256_mul_pd(coef, d[a]));
@@ -303,7 +323,7 @@ mod avx {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn sum(v: __m256d) -> f64 {
+    pub(crate) unsafe fn sum(v: __m256d) -> f64 {
         let mut a = [0.0; 4];
         _mm256_storeu_pd(a.as_mut_ptr(), v);
         (a[0] + a[1]) + (a[2] + a[3])
@@ -311,7 +331,7 @@ mod avx {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn own_position(nb: &NodeBonds) -> [__m256d; 3] {
+    pub(crate) unsafe fn own_position(nb: &NodeBonds) -> [__m256d; 3] {
         let i = nb.i;
         [
             _mm256_set1_pd(nb.current[3 * i]),
