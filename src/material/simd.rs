@@ -100,7 +100,11 @@ pub(crate) fn length(d: &[f64; 3]) -> f64 {
 
 /// The scalar tail of a family: calls `f(j, |ξ|, y, |y|)` for each intact bond from `from` on,
 /// deciding failure like the lanes do. Returns the bonds broken.
-pub(crate) fn tail(nb: &mut NodeBonds, from: usize, mut f: impl FnMut(usize, f64, [f64; 3], f64)) -> u64 {
+pub(crate) fn tail(
+    nb: &mut NodeBonds,
+    from: usize,
+    mut f: impl FnMut(usize, f64, [f64; 3], f64),
+) -> u64 {
     let i = nb.i;
     let (xi, yi, zi) = (
         nb.current[3 * i],
@@ -314,7 +318,12 @@ pub(crate) mod avx {
     /// acc += coef · (dx, dy, dz) on the lanes in `keep`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(crate) unsafe fn add_force(acc: &mut [__m256d; 3], coef: __m256d, keep: __m256d, d: [__m256d; 3]) {
+    pub(crate) unsafe fn add_force(
+        acc: &mut [__m256d; 3],
+        coef: __m256d,
+        keep: __m256d,
+        d: [__m256d; 3],
+    ) {
         let coef = _mm256_and_pd(coef, keep);
         for a in 0..3 {
             acc[a] = _mm256_add_pd(acc[a], _mm256_mul_pd(coef, d[a]));

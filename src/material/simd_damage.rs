@@ -114,10 +114,7 @@ pub unsafe fn pmb_force_softening(
             }
             (
                 _mm256_loadu_pd(mu.as_ptr()),
-                _mm256_and_pd(
-                    intact(nb.status, b),
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero),
-                ),
+                _mm256_and_pd(intact(nb.status, b), _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero)),
             )
         };
         let c = if law.conical {
@@ -133,7 +130,10 @@ pub unsafe fn pmb_force_softening(
         let pm = _mm256_mul_pd(phi(w, l), mu);
         let coef = _mm256_mul_pd(
             _mm256_div_pd(
-                _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(pm, pm)), e),
+                _mm256_mul_pd(
+                    _mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(pm, pm)),
+                    e,
+                ),
                 _mm256_mul_pd(l, len),
             ),
             volume,
