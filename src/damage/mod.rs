@@ -120,6 +120,12 @@ pub trait DamageLaw: Sync + Send {
         None
     }
 
+    /// The law, if this is a softening law with one parameter set for every node (the PMB
+    /// AVX2 kernel implements it too).
+    fn uniform_softening(&self) -> Option<softening::UniformSoftening> {
+        None
+    }
+
     /// First sweep: records the stretch and breaks the halves that fail; `protected()`: an end
     /// is in a no-fail set (nothing is recorded, nothing breaks; asked only when needed).
     /// Returns 1 if node i's own half broke now.

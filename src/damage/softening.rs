@@ -226,6 +226,10 @@ impl DamageLaw for UniformSoftening {
     const PARTIAL: bool = true;
     const HALVES_TOGETHER: bool = true;
 
+    fn uniform_softening(&self) -> Option<UniformSoftening> {
+        Some(*self)
+    }
+
     #[inline(always)]
     fn record_stretch(&self, st: Stretch, h: &mut [f64]) {
         record_largest(st, h);

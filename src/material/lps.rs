@@ -244,6 +244,9 @@ impl<const D: usize> Material<D> for Lps {
         nb: &mut NodeBonds,
         w: &UniformWeights,
     ) -> Option<(LpsPoint, u64)> {
+        if nb.softening.is_some() {
+            return None; // no LPS kernel for softening
+        }
         let law = self.law()?;
         // SAFETY: forwarded from the caller.
         let (sum, broke) = unsafe { simd::lps_dilatation_sum(nb, &law, w) };
@@ -259,6 +262,9 @@ impl<const D: usize> Material<D> for Lps {
         w: &UniformWeights,
         points: &[LpsPoint],
     ) -> Option<([f64; 3], u64)> {
+        if nb.softening.is_some() {
+            return None; // no LPS kernel for softening
+        }
         let law = self.law()?;
         // SAFETY: `LpsPoint` is a transparent f64.
         let theta =

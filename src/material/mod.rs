@@ -17,6 +17,7 @@ pub mod mixed_central;
 pub mod pmb;
 pub mod simd;
 pub mod simd_correspondence;
+pub mod simd_damage;
 
 pub use calibration::{Dimensionality, Elasticity};
 pub use correspondence::Correspondence;

@@ -6,6 +6,7 @@
 
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::PartialVolume;
+use crate::damage::softening::UniformSoftening;
 use crate::state::{BROKEN, INTACT};
 
 /// Whether this machine can run the kernels.
@@ -31,6 +32,11 @@ pub struct NodeBonds<'a> {
     pub no_fail: &'a [bool],
     /// Critical stretch, or `None` when this pass does not decide failure.
     pub s0: Option<f64>,
+    /// A uniform softening law that this pass applies instead of a critical stretch (see
+    /// `with_softening`); only the PMB kernel implements it.
+    pub softening: Option<UniformSoftening>,
+    /// The family's history words (one per bond: the largest stretch) when `softening`.
+    pub history: &'a mut [f64],
 }
 
 impl<'a> NodeBonds<'a> {
@@ -52,7 +58,18 @@ impl<'a> NodeBonds<'a> {
             status,
             no_fail,
             s0,
+            softening: None,
+            history: &mut [],
         }
+    }
+
+    /// The same family under a uniform softening law with its history (one word per bond).
+    pub fn with_softening(mut self, law: UniformSoftening, history: &'a mut [f64]) -> Self {
+        debug_assert_eq!(history.len(), self.neighbors.len());
+        self.s0 = None;
+        self.softening = Some(law);
+        self.history = history;
+        self
     }
 }
 
@@ -77,7 +94,7 @@ pub struct LpsLaw {
 
 /// |y| of a deformed bond vector, in the order the vector lanes use.
 #[inline(always)]
-fn length(d: &[f64; 3]) -> f64 {
+pub(crate) fn length(d: &[f64; 3]) -> f64 {
     (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
@@ -124,7 +141,7 @@ pub(crate) fn tail(
 impl PmbLaw {
     /// c(ξ) φ̄ (|y| − |ξ|) / (|ξ||y|) V, the generic loop's `pair_force_per_length × V`.
     #[inline(always)]
-    fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
+    pub(crate) fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
         let c = if self.conical {
             self.c0 * (1.0 - l / self.horizon).max(0.0)
         } else {
@@ -157,7 +174,10 @@ impl LpsLaw {
 pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
     #[cfg(target_arch = "x86_64")]
     {
-        avx::pmb_force(nb, law, w)
+        match nb.softening {
+            Some(soft) => crate::material::simd_damage::pmb_force_softening(nb, law, w, &soft),
+            None => avx::pmb_force(nb, law, w),
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     unreachable!("available() is false off x86-64")
@@ -298,7 +318,12 @@ pub(crate) mod avx {
     /// acc += coef · (dx, dy, dz) on the lanes in `keep`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn add_force(acc: &mut [__m256d; 3], coef: __m256d, keep: __m256d, d: [__m256d; 3]) {
+    pub(crate) unsafe fn add_force(
+        acc: &mut [__m256d; 3],
+        coef: __m256d,
+        keep: __m256d,
+        d: [__m256d; 3],
+    ) {
         let coef = _mm256_and_pd(coef, keep);
         for a in 0..3 {
             acc[a] = _mm256_add_pd(acc[a], _mm256_mul_pd(coef, d[a]));

@@ -304,14 +304,15 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let hw = history_words::<D, M, Dm>();
         debug_assert_eq!(state.history.len(), bonds.len() * hw);
         let mut newly_broken = 0u64;
-        // The AVX2 kernels, where the model has them: 3D, uniform grid, one critical stretch,
-        // x86-64 with AVX2, and neighbour indices known to be in bounds (the kernels' gathers
-        // rely on it).
+        // The AVX2 kernels, where the model has them: 3D, uniform grid, one critical stretch
+        // or one softening law, x86-64 with AVX2, and neighbour indices known to be in bounds
+        // (the kernels' gathers rely on it).
         let s0 = damage.uniform_critical_stretch();
+        let softening = damage.uniform_softening().filter(|_| hw == 1);
         let vector = if D == 3
             && self.vector_kernels
             && self.neighbors_in_bounds
-            && s0.is_some()
+            && (s0.is_some() || softening.is_some())
             && simd::available()
         {
             self.quad.uniform()
@@ -361,6 +362,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
                         if let Some(w) = &vector {
                             let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
+                            if let Some(law) = softening {
+                                nb = nb.with_softening(law, history);
+                            }
                             // SAFETY: AVX2 is available and neighbour indices are in bounds.
                             if let Some((p, nb_broken)) =
                                 unsafe { material.vector_prepass(&mut nb, w) }
@@ -413,6 +417,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     if let Some(w) = &vector {
                         let mut nb =
                             NodeBonds::of(i, flat, bonds, status, no_fail, decide.then_some(s0));
+                        if let Some(law) = softening {
+                            nb = nb.with_softening(law, history);
+                        }
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
                         if let Some((f, nb_broken)) =
                             unsafe { material.vector_force(&mut nb, w, points) }
