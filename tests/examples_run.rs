@@ -139,3 +139,17 @@ fn gmsh_plate_runs_on_its_mesh() {
     assert_eq!(r.broken_bonds, 0);
     assert_work_stored("gmsh_plate", &r, 0.02);
 }
+
+/// Seed 000's plate with a hole on the NB-NUG grid: pulled elastically, nothing breaks, and the
+/// damping only ever takes energy out.
+#[test]
+fn seed000_nbnug_plate_loads_elastically() {
+    let r = run_steps(deck("seed000_plate_hole_nbnug.toml"), Some(300));
+    assert_eq!(r.broken_bonds, 0);
+    let stored = r.kinetic_energy + r.strain_energy;
+    assert!(
+        r.strain_energy > 0.0 && stored <= r.external_work * (1.0 + 1e-9),
+        "stored {stored} J of {} J work",
+        r.external_work
+    );
+}
