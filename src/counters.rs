@@ -4,6 +4,8 @@ use std::time::Duration;
 
 #[derive(Debug, Clone, Default)]
 pub struct Counters {
+    /// Grid generation and bond search (building the model from the deck).
+    pub grid: Duration,
     pub setup: Duration,
     pub force: Duration,
     pub integrate: Duration,

@@ -41,6 +41,8 @@ pub struct Model<const D: usize> {
     pub material_of: Vec<u16>,
     /// Deck key of each material in use: "material", or "materials.NAME".
     pub materials: Vec<String>,
+    /// Time spent generating the grid and searching the bonds.
+    pub build_time: std::time::Duration,
 }
 
 /// The calibrated model of a deck's material(s): what `run.rs` dispatches on.
@@ -127,6 +129,7 @@ fn deck_pores(
 /// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
 /// memory than the machine has.
 pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckError> {
+    let started = std::time::Instant::now();
     let deck = &ld.deck;
     let dimensionality = dimensionality(deck).expect("validated deck");
     let thickness = deck.thickness.unwrap_or(1.0);
@@ -434,6 +437,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         })
         .collect();
     Ok(Model {
+        build_time: started.elapsed(),
         body,
         bonds,
         loading,
