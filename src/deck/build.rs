@@ -212,23 +212,8 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             let pc = read_point_cloud(&path, D).map_err(|e| {
                 ld.locate(vec![DeckIssue::new("discretization.file", e.to_string())])
             })?;
-            let cell_sizes = pc
-                .volumes
-                .iter()
-                .map(|&v| if D == 2 { v.sqrt() } else { v.cbrt() })
-                .collect();
-            let volumes = pc
-                .volumes
-                .iter()
-                .map(|&v| if D == 2 { v * thickness } else { v })
-                .collect();
             (
-                NodeCloud {
-                    positions: pc.positions,
-                    volumes,
-                    cell_sizes,
-                    blocks: pc.blocks,
-                },
+                NodeCloud::from_measures(pc.positions, &pc.volumes, pc.blocks, D, thickness),
                 *horizon,
                 *partial_volume,
                 BTreeMap::new(),
@@ -243,23 +228,8 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             let mesh = read_gmsh(&path, D).map_err(|e| {
                 ld.locate(vec![DeckIssue::new("discretization.file", e.to_string())])
             })?;
-            let cell_sizes = mesh
-                .measures
-                .iter()
-                .map(|&v| if D == 2 { v.sqrt() } else { v.cbrt() })
-                .collect();
-            let volumes = mesh
-                .measures
-                .iter()
-                .map(|&v| if D == 2 { v * thickness } else { v })
-                .collect();
             (
-                NodeCloud {
-                    positions: mesh.positions,
-                    volumes,
-                    cell_sizes,
-                    blocks: mesh.blocks,
-                },
+                NodeCloud::from_measures(mesh.positions, &mesh.measures, mesh.blocks, D, thickness),
                 *horizon,
                 *partial_volume,
                 mesh.node_sets,

@@ -6,7 +6,6 @@
 //! kept unsplit, so two meshes that share a boundary piece seeded alike match along it (the
 //! NB-NUG boxes rely on this).
 
-use super::NodeCloud;
 use crate::geometry::boundary::{boundary_segments, Segment};
 use crate::geometry::Shape;
 use spade::{
@@ -55,19 +54,6 @@ impl TriangleMesh {
                 cross.abs().atan2(dot).to_degrees()
             })
             .fold(180.0, f64::min)
-    }
-
-    /// One node per triangle: centroid, area × `thickness` as volume, √area as cell size.
-    pub fn centroid_cloud(&self, thickness: f64) -> NodeCloud {
-        let mut cloud = NodeCloud::default();
-        for t in 0..self.triangles.len() {
-            let (c, a) = (self.centroid(t), self.area(t));
-            cloud.positions.push([c[0], c[1], 0.0]);
-            cloud.volumes.push(a * thickness);
-            cloud.cell_sizes.push(a.sqrt());
-            cloud.blocks.push(0);
-        }
-        cloud
     }
 }
 

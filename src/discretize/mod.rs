@@ -19,6 +19,30 @@ pub struct NodeCloud {
 }
 
 impl NodeCloud {
+    /// Nodes with their areas (2D, times `thickness`) or volumes (3D); the cell size r_j is
+    /// √area or ∛volume.
+    pub fn from_measures(
+        positions: Vec<[f64; 3]>,
+        measures: &[f64],
+        blocks: Vec<u32>,
+        dim: usize,
+        thickness: f64,
+    ) -> Self {
+        let two_d = dim == 2;
+        NodeCloud {
+            positions,
+            volumes: measures
+                .iter()
+                .map(|&v| if two_d { v * thickness } else { v })
+                .collect(),
+            cell_sizes: measures
+                .iter()
+                .map(|&v| if two_d { v.sqrt() } else { v.cbrt() })
+                .collect(),
+            blocks,
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.positions.len()
     }
