@@ -1,14 +1,16 @@
 //! Seeing a discretization before a long run: grid statistics for `peridyn check`, and
-//! `peridyn grid DECK`, which writes the nodes (VTU: volume, cell size, horizon, block) and a
-//! PNG of the node positions, sized and coloured by cell size, with the shape's outline.
+//! `peridyn grid DECK`, which writes the nodes (VTU: volume, cell size, horizon, block,
+//! surface-correction factor) and a PNG of the node positions, sized and coloured by cell
+//! size, with the shape's outline.
 
 use crate::body::Body;
 use crate::bonds::Bonds;
-use crate::deck::build::build_model;
+use crate::deck::build::{build_constitution, build_model};
 use crate::deck::schema::Discretization;
 use crate::deck::LoadedDeck;
 use crate::geometry::boundary::boundary_segments;
 use crate::geometry::Shape;
+use crate::material::surface_correction::SurfaceCorrection;
 use crate::observe::vtu::{write_vtu, Field, FieldData};
 use crate::plot::damage_map::{write_scalar_map_png, MapStyle};
 use crate::run::RunError;
@@ -140,6 +142,14 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
         .map(|p| std::array::from_fn(|k| if k < D { p[k] } else { 0.0 }))
         .collect();
     let blocks: Vec<i32> = model.material_of.iter().map(|&b| b as i32).collect();
+    // λ of the deck's surface correction; 1 where there is none.
+    let surface_factors = match ld.deck.discretization.surface_correction() {
+        SurfaceCorrection::None => vec![1.0; body.len()],
+        _ => build_constitution(ld, &model)?
+            .surface
+            .map(|s| s.factors)
+            .unwrap_or_else(|| vec![1.0; body.len()]),
+    };
     write_vtu(
         &out.join("grid.vtu"),
         &points,
@@ -159,6 +169,10 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
             Field {
                 name: "block",
                 data: FieldData::Int(&blocks),
+            },
+            Field {
+                name: "surface_factor",
+                data: FieldData::Scalar(&surface_factors),
             },
         ],
     )?;

@@ -7,6 +7,7 @@ use crate::deck::build::{
     MaterialReport, Model,
 };
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
+use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
@@ -72,6 +73,8 @@ pub struct ModelReport {
     /// Every material as calibrated.
     pub materials: Vec<MaterialReport>,
     pub grid: crate::grid::GridReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface_correction: Option<SurfaceReport>,
 }
 
 impl std::fmt::Display for ModelReport {
@@ -83,6 +86,9 @@ impl std::fmt::Display for ModelReport {
         )?;
         writeln!(f, "nodes            {}", self.nodes)?;
         writeln!(f, "{}", self.grid)?;
+        if let Some(s) = &self.surface_correction {
+            writeln!(f, "{s}")?;
+        }
         writeln!(
             f,
             "bonds            {} ({:.1} per node, {} B per directed bond)",
@@ -257,6 +263,7 @@ pub struct DamageAndReports {
     pub damage: Damage,
     pub reports: Vec<MaterialReport>,
     pub porosity: Vec<(u16, crate::damage::porosity::Porosity)>,
+    pub surface: Option<SurfaceReport>,
 }
 
 impl Constitution {
@@ -268,6 +275,7 @@ impl Constitution {
                 damage: self.damage,
                 reports: self.reports,
                 porosity: self.porosity,
+                surface: self.surface.map(|s| s.report),
             },
         )
     }
@@ -286,6 +294,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         damage,
         mut reports,
         porosity,
+        surface,
     } = rest;
     let Model {
         body,
@@ -375,6 +384,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         bytes_per_bond,
         materials: reports,
         grid,
+        surface_correction: surface,
     };
     Ok((sim, report))
 }

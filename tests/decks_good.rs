@@ -276,7 +276,7 @@ fn grid_writes_the_nodes_and_reports_the_spacing_and_area() {
     assert!((report.measure - shape).abs() < 5e-3 * shape);
     let vtu = std::fs::read(out.join("grid.vtu")).unwrap();
     let text = String::from_utf8_lossy(&vtu);
-    for field in ["volume", "cell_size", "horizon", "block"] {
+    for field in ["volume", "cell_size", "horizon", "block", "surface_factor"] {
         assert!(text.contains(&format!("Name=\"{field}\"")), "{field}");
     }
     assert!(std::fs::metadata(out.join("grid.png")).unwrap().len() > 10_000);

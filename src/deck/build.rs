@@ -6,7 +6,7 @@ use super::validate::dimensionality;
 use super::{DeckError, DeckIssue, LoadedDeck};
 use crate::body::Body;
 use crate::bonds::search::{build_bonds, estimate_bonds};
-use crate::bonds::{Bonds, PartialVolume};
+use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::damage::mixed::BlockLaw;
 use crate::damage::porosity::Porosity;
 use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
@@ -18,6 +18,9 @@ use crate::geometry::point_cloud::read_point_cloud;
 use crate::loading::{BoundaryCondition, InitialVelocity, Load, Loading};
 use crate::material::correspondence::ZeroEnergyControl;
 use crate::material::mixed::BlockMaterial;
+use crate::material::surface_correction::{
+    corrected, surface_factors, SurfaceCorrection, SurfaceFactors,
+};
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
@@ -63,6 +66,8 @@ pub struct Constitution {
     pub reports: Vec<MaterialReport>,
     /// IH-PD pre-broken bonds to draw, per material index.
     pub porosity: Vec<(u16, Porosity)>,
+    /// Surface-correction factors, when the deck asks for them.
+    pub surface: Option<SurfaceFactors>,
 }
 
 /// One material as calibrated (at the discretization's horizon when horizons vary).
@@ -144,6 +149,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             partial_volume,
             refine,
             pores,
+            ..
         } => {
             let h = horizon.unwrap_or_else(|| horizon_ratio.unwrap_or(3.0) * spacing);
             let at = |e: String| ld.locate(vec![DeckIssue::new("discretization.shape", e)]);
@@ -167,6 +173,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             partial_volume,
             cells,
             pores,
+            ..
         }
         | Discretization::Nbnug {
             shape,
@@ -207,6 +214,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             file,
             horizon,
             partial_volume,
+            ..
         } => {
             let path = ld.base_dir().join(file);
             let pc = read_point_cloud(&path, D).map_err(|e| {
@@ -223,6 +231,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             file,
             horizon,
             partial_volume,
+            ..
         } => {
             let path = ld.base_dir().join(file);
             let mesh = read_gmsh(&path, D).map_err(|e| {
@@ -958,12 +967,41 @@ pub fn build_constitution<const D: usize>(
             }),
         )
     };
+    let (material, surface) = surface_corrected(ld, model, material)?;
     Ok(Constitution {
         material,
         damage,
         reports,
         porosity,
+        surface,
     })
+}
+
+/// Applies the deck's surface correction (PMB only: LPS and correspondence normalise by the
+/// family they have, through m and K).
+fn surface_corrected<const D: usize>(
+    ld: &LoadedDeck,
+    model: &Model<D>,
+    material: MaterialChoice,
+) -> Result<(MaterialChoice, Option<SurfaceFactors>), DeckError> {
+    const KEY: &str = "discretization.surface_correction";
+    let method = ld.deck.discretization.surface_correction();
+    if method == SurfaceCorrection::None {
+        return Ok((material, None));
+    }
+    let MaterialChoice::Pmb(pmb) = material else {
+        return Err(ld.locate(vec![DeckIssue::new(
+            KEY,
+            "a surface correction applies to a body of one bond-based PMB material; LPS and \
+             correspondence already normalise by the family a node has (m, K)",
+        )]));
+    };
+    let quad = Quadrature::for_body(model.rule, &model.body, &model.bonds);
+    let factors = surface_factors(method, &model.body, &model.bonds, &quad, &pmb)
+        .map_err(|e| ld.locate(vec![DeckIssue::new(KEY, e.to_string())]))?
+        .expect("a method was asked for");
+    let pmb = corrected(pmb, &factors.factors);
+    Ok((MaterialChoice::Pmb(pmb), Some(factors)))
 }
 
 /// The solver settings of a deck.

@@ -4,6 +4,7 @@
 use crate::bonds::{PartialVolume, Precrack};
 use crate::geometry::Shape;
 use crate::loading::{Kinematic, TimeFunction};
+use crate::material::surface_correction::SurfaceCorrection;
 use crate::material::{Influence, MicromodulusProfile};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -83,6 +84,9 @@ pub enum Discretization {
         horizon_ratio: Option<f64>,
         #[serde(default)]
         partial_volume: PartialVolume,
+        /// Surface correction of PMB (seed 000 §2.5); none by default.
+        #[serde(default)]
+        surface_correction: SurfaceCorrection,
         /// Multi-grid refinement regions (seed 003 §3.1).
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         refine: Vec<RefineDeck>,
@@ -104,6 +108,9 @@ pub enum Discretization {
         horizon_ratio: Option<f64>,
         #[serde(default)]
         partial_volume: PartialVolume,
+        /// Surface correction of PMB (seed 000 §2.5); none by default.
+        #[serde(default)]
+        surface_correction: SurfaceCorrection,
         #[serde(default)]
         cells: CellKind,
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -125,6 +132,9 @@ pub enum Discretization {
         horizon_ratio: Option<f64>,
         #[serde(default)]
         partial_volume: PartialVolume,
+        /// Surface correction of PMB (seed 000 §2.5); none by default.
+        #[serde(default)]
+        surface_correction: SurfaceCorrection,
         #[serde(default)]
         cells: CellKind,
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -138,6 +148,9 @@ pub enum Discretization {
         horizon: f64,
         #[serde(default)]
         partial_volume: PartialVolume,
+        /// Surface correction of PMB (seed 000 §2.5); none by default.
+        #[serde(default)]
+        surface_correction: SurfaceCorrection,
     },
     /// A Gmsh mesh (`.msh` 4.1 ASCII/binary or 2.2 ASCII): one node per element of the
     /// body's dimension; physical groups give blocks and node sets.
@@ -148,7 +161,33 @@ pub enum Discretization {
         horizon: f64,
         #[serde(default)]
         partial_volume: PartialVolume,
+        /// Surface correction of PMB (seed 000 §2.5); none by default.
+        #[serde(default)]
+        surface_correction: SurfaceCorrection,
     },
+}
+
+impl Discretization {
+    /// The surface correction the deck asks for.
+    pub fn surface_correction(&self) -> SurfaceCorrection {
+        match self {
+            Discretization::Lattice {
+                surface_correction, ..
+            }
+            | Discretization::FreeMesh {
+                surface_correction, ..
+            }
+            | Discretization::Nbnug {
+                surface_correction, ..
+            }
+            | Discretization::PointCloud {
+                surface_correction, ..
+            }
+            | Discretization::Gmsh {
+                surface_correction, ..
+            } => *surface_correction,
+        }
+    }
 }
 
 /// A multi-grid refinement region.

@@ -18,6 +18,7 @@ pub mod pmb;
 pub mod simd;
 pub mod simd_correspondence;
 pub mod simd_damage;
+pub mod surface_correction;
 
 pub use calibration::{Dimensionality, Elasticity};
 pub use correspondence::Correspondence;
