@@ -136,6 +136,9 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
     let shape = deck_shape(ld);
     let report = grid_report(body, &model.bonds, thickness, shape);
     std::fs::create_dir_all(out)?;
+    if let Some(text) = &model.pores {
+        crate::atomic_file::write_atomic(&out.join("pores.txt"), text.as_bytes())?;
+    }
     let points: Vec<[f64; 3]> = body
         .positions
         .iter()

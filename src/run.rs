@@ -396,11 +396,15 @@ fn run_model<const D: usize, M: Material<D>>(
     rest: DamageAndReports,
     opts: &RunOptions,
 ) -> Result<RunSummary, RunError> {
+    let pores = model.pores.clone();
     let (mut sim, report) = prepare(ld, model, material, rest)?;
     let out = &opts.out_dir;
     std::fs::create_dir_all(out)
         .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
     write_resolved(ld, &report, out)?;
+    if let Some(text) = pores {
+        crate::atomic_file::write_atomic(&out.join("pores.txt"), text.as_bytes())?;
+    }
 
     let deck = &ld.deck;
     let sets: Vec<(String, Vec<u32>)> = sim

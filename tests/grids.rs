@@ -112,6 +112,23 @@ fn pores_are_cut_and_repeat_with_their_seed() {
             / 1e-3
     };
     assert!(area < 0.02 * 0.01 - 4.0 * std::f64::consts::PI * 7.5e-4f64.powi(2) * 0.99);
+    // The realisation is recorded (pores.txt): a header, then x y r per pore, inside the plate
+    // and within the radius range, so a run can be repeated and inspected.
+    let ld = LoadedDeck::from_str(&text(1), Path::new("pores.toml")).unwrap();
+    let record = build_model::<2>(&ld).unwrap().pores.expect("a pore record");
+    let rows: Vec<Vec<f64>> = record
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 4);
+    for r in rows {
+        assert!(
+            (0.0..0.02).contains(&r[0]) && (0.0..0.01).contains(&r[1]),
+            "{r:?}"
+        );
+        assert!((7.5e-4..=1.5e-3).contains(&r[2]), "{r:?}");
+    }
 }
 
 #[test]

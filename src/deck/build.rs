@@ -46,6 +46,8 @@ pub struct Model<const D: usize> {
     pub materials: Vec<String>,
     /// Time spent generating the grid and searching the bonds.
     pub build_time: std::time::Duration,
+    /// The random pores' realisation (`pores.txt`), when the deck has pores.
+    pub pores: Option<String>,
 }
 
 /// The calibrated model of a deck's material(s): what `run.rs` dispatches on.
@@ -117,16 +119,17 @@ pub struct ExplicitSettings {
     pub safety_factor: f64,
 }
 
-/// The deck's random pores, if any, or an error at `discretization.pores`.
+/// The deck's random pores, if any, with their record, or an error at `discretization.pores`.
 fn deck_pores(
     ld: &LoadedDeck,
     shape: &crate::geometry::Shape,
     dim: usize,
     pores: &Option<PoresDeck>,
-) -> Result<Vec<crate::geometry::pores::Pore>, DeckError> {
+) -> Result<(Vec<crate::geometry::pores::Pore>, Option<String>), DeckError> {
     match pores {
-        None => Ok(Vec::new()),
+        None => Ok((Vec::new(), None)),
         Some(p) => grids::pores_of(shape, dim, p)
+            .map(|(pores, text)| (pores, Some(text)))
             .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.pores", e)])),
     }
 }
@@ -140,6 +143,11 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     let thickness = deck.thickness.unwrap_or(1.0);
     let available = memory::available_bytes();
     let per_node = memory::bytes_per_node(D, 256);
+    let mut pores_record = None;
+    let mut record_pores = |(pores, text)| {
+        pores_record = text;
+        pores
+    };
     let (cloud, horizon, rule, mesh_sets) = match &deck.discretization {
         Discretization::Lattice {
             shape,
@@ -153,7 +161,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         } => {
             let h = horizon.unwrap_or_else(|| horizon_ratio.unwrap_or(3.0) * spacing);
             let at = |e: String| ld.locate(vec![DeckIssue::new("discretization.shape", e)]);
-            let pores = deck_pores(ld, shape, D, pores)?;
+            let pores = record_pores(deck_pores(ld, shape, D, pores)?);
             // Each level of refinement can at most multiply the count by 2^D.
             let deepest = refine.iter().map(|r| r.levels).max().unwrap_or(0);
             let cells = lattice::cell_count(shape, D, *spacing).map_err(at)?
@@ -195,7 +203,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             memory::Estimate::new(cells_estimate, 0.0, per_node, 0)
                 .fits(available)
                 .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.size", e)]))?;
-            let pores = deck_pores(ld, shape, D, pores)?;
+            let pores = record_pores(deck_pores(ld, shape, D, pores)?);
             let cloud = match &deck.discretization {
                 Discretization::Nbnug { padding, .. } => grids::nbnug_grid(
                     shape,
@@ -427,6 +435,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         initial_velocities,
         material_of,
         materials,
+        pores: pores_record,
     })
 }
 

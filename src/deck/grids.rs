@@ -7,15 +7,16 @@ use crate::discretize::multigrid::{multigrid, Refinement};
 use crate::discretize::nbnug::{Hole, NbNug};
 use crate::discretize::recombine::{recombine, CellMesh};
 use crate::discretize::{lattice, NodeCloud};
-use crate::geometry::pores::{random_pores, Pore, PoreSpec};
+use crate::geometry::pores::{pores_text, random_pores, Pore, PoreSpec};
 use crate::geometry::Shape;
 
-/// The pores of a deck, drawn in the shape's bounding box.
-pub fn pores_of(shape: &Shape, dim: usize, p: &PoresDeck) -> Result<Vec<Pore>, String> {
+/// The pores of a deck, drawn in the shape's bounding box, and their realisation as text
+/// (`pores.txt`: what a run needs to be repeated and inspected).
+pub fn pores_of(shape: &Shape, dim: usize, p: &PoresDeck) -> Result<(Vec<Pore>, String), String> {
     let Some((min, max)) = shape.bounding_box() else {
         return Err("pores need a bounded shape".into());
     };
-    random_pores(&PoreSpec {
+    let spec = PoreSpec {
         min,
         max,
         count: p.count,
@@ -23,8 +24,11 @@ pub fn pores_of(shape: &Shape, dim: usize, p: &PoresDeck) -> Result<Vec<Pore>, S
         radius_max: p.radius[1],
         clearance: p.clearance,
         seed: p.seed,
-    })
-    .inspect(|pores| debug_assert!(pores.iter().all(|q| q.center.len() == dim)))
+    };
+    let pores = random_pores(&spec)?;
+    debug_assert!(pores.iter().all(|q| q.center.len() == dim));
+    let text = pores_text(&spec, &pores);
+    Ok((pores, text))
 }
 
 /// `shape` with the pores cut out.
