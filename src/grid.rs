@@ -206,6 +206,7 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
                 vmax: if hi > lo { hi } else { lo * 1.01 + 1e-12 },
                 width_px: 1600,
                 outline: &outline,
+                fill_gaps: false,
             },
         )
         .map_err(|e| RunError::Io(std::io::Error::other(e.to_string())))?;

@@ -99,6 +99,7 @@ impl<const D: usize> Observer<D> for Snapshots {
             );
             let style = MapStyle {
                 outline: &[],
+                fill_gaps: true,
                 title: &title,
                 label: "damage (-)",
                 vmin: 0.0,

@@ -55,6 +55,9 @@ pub struct MapStyle<'a> {
     pub width_px: u32,
     /// Line segments (metres) drawn over the nodes, e.g. the shape's boundary.
     pub outline: &'a [[[f64; 2]; 2]],
+    /// Close the slivers an unstructured mesh leaves between node squares (field maps); off
+    /// where the gaps are the point (a grid's node picture).
+    pub fill_gaps: bool,
 }
 
 /// An RGB8 image in memory plus where the data area lies in it.
@@ -454,23 +457,44 @@ fn rasterise_nodes(
             (c as usize, c as usize + 1)
         })
     };
-    for ((p, &c), &v) in xy.iter().zip(cell_size).zip(values) {
-        if v.is_nan() {
-            continue;
+    // Squares of the cell size tile a lattice exactly. Squares of √area at the centroids of
+    // an unstructured mesh leave slivers between them: a second pass paints squares half as
+    // large again, into the pixels still empty only, so no node covers another's colour.
+    let varying = style.fill_gaps && cell_size.windows(2).any(|w| w[0] != w[1]);
+    for (grow, only_empty) in [(1.0, false), (1.5, true)] {
+        if only_empty && !varying {
+            break;
         }
-        let h = if c.is_finite() { 0.5 * c.abs() } else { 0.0 };
-        let Some((x0, x1)) = span((p[0] - h - xr[0]) * sx, (p[0] + h - xr[0]) * sx, pw) else {
-            continue;
+        let empty: Vec<bool> = if only_empty {
+            count.iter().map(|&c| c == 0).collect()
+        } else {
+            Vec::new()
         };
-        // Pixel rows grow downwards while y grows upwards.
-        let Some((y0, y1)) = span((yr[1] - p[1] - h) * sy, (yr[1] - p[1] + h) * sy, ph) else {
-            continue;
-        };
-        for row in y0..y1 {
-            let base = row * pw;
-            for i in base + x0..base + x1 {
-                sum[i] += v;
-                count[i] += 1;
+        for ((p, &c), &v) in xy.iter().zip(cell_size).zip(values) {
+            if v.is_nan() {
+                continue;
+            }
+            let h = if c.is_finite() {
+                0.5 * grow * c.abs()
+            } else {
+                0.0
+            };
+            let Some((x0, x1)) = span((p[0] - h - xr[0]) * sx, (p[0] + h - xr[0]) * sx, pw) else {
+                continue;
+            };
+            // Pixel rows grow downwards while y grows upwards.
+            let Some((y0, y1)) = span((yr[1] - p[1] - h) * sy, (yr[1] - p[1] + h) * sy, ph) else {
+                continue;
+            };
+            for row in y0..y1 {
+                let base = row * pw;
+                for i in base + x0..base + x1 {
+                    if only_empty && !empty[i] {
+                        continue;
+                    }
+                    sum[i] += v;
+                    count[i] += 1;
+                }
             }
         }
     }
@@ -533,6 +557,7 @@ mod tests {
     fn style() -> MapStyle<'static> {
         MapStyle {
             outline: &[],
+            fill_gaps: true,
             title: "Damage, step 1000",
             label: "damage (-)",
             vmin: 0.0,
@@ -553,6 +578,35 @@ mod tests {
         assert_eq!(colormap(-3.0), VIRIDIS[0]);
         assert_eq!(colormap(7.0), VIRIDIS[8]);
         assert_eq!(colormap(0.5), VIRIDIS[4]);
+    }
+
+    /// Node squares smaller than their spacing (as √area squares of an unstructured mesh are
+    /// in places) leave background slivers, which the gap-filling pass closes.
+    #[test]
+    fn gaps_between_uneven_node_squares_are_filled() {
+        let (xy, _, val) = plate(30, 1e-3);
+        let cell: Vec<f64> = (0..xy.len())
+            .map(|i| if i % 2 == 0 { 0.7e-3 } else { 0.75e-3 })
+            .collect();
+        let background = |fill_gaps| {
+            let s = MapStyle {
+                fill_gaps,
+                ..style()
+            };
+            let img = render_scalar_map(&xy, &cell, &val, &s).unwrap();
+            let (xs, ys) = img.plot_area.clone();
+            // The interior, away from the plate's edge.
+            let (dx, dy) = (xs.len() as i32 / 10, ys.len() as i32 / 10);
+            let mut n = 0;
+            for y in ys.start + dy..ys.end - dy {
+                for x in xs.start + dx..xs.end - dx {
+                    n += (pixel(&img, x, y) == BACKGROUND) as usize;
+                }
+            }
+            n
+        };
+        assert!(background(false) > 1000, "the test needs gaps to close");
+        assert_eq!(background(true), 0);
     }
 
     #[test]
