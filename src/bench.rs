@@ -273,15 +273,19 @@ pub fn run_benchmarks(
     only: &[String],
 ) -> Result<Vec<BenchResult>, String> {
     if only.iter().any(|c| c == "list") {
-        for case in CASES {
+        for case in CASES.iter().chain(&GRID_CASES) {
             println!("{case}");
         }
         return Ok(Vec::new());
     }
-    if let Some(bad) = only.iter().find(|c| !CASES.contains(&c.as_str())) {
+    if let Some(bad) = only
+        .iter()
+        .find(|c| !CASES.contains(&c.as_str()) && !GRID_CASES.contains(&c.as_str()))
+    {
         return Err(format!(
-            "unknown benchmark case {bad:?}; cases: {}",
-            CASES.join(", ")
+            "unknown benchmark case {bad:?}; cases: {}, {}",
+            CASES.join(", "),
+            GRID_CASES.join(", ")
         ));
     }
     let cores = std::thread::available_parallelism()
@@ -324,7 +328,145 @@ pub fn run_benchmarks(
             results.push(r);
         }
     }
+    let grids: Vec<&str> = GRID_CASES
+        .into_iter()
+        .filter(|c| only.is_empty() || only.iter().any(|o| o == c))
+        .collect();
+    if !grids.is_empty() {
+        println!(
+            "\n{:<20} {:>9} {:>12} {:>12} {:>14} {:>14} {:>12}",
+            "grid", "nodes", "generate s", "bonds s", "100 steps s", "MB grid+bonds", "gen/100 st"
+        );
+        for name in grids {
+            let g = grid_case(name);
+            println!(
+                "{:<20} {:>9} {:>12.3} {:>12.3} {:>14.2} {:>14.0} {:>12.3}",
+                g.case,
+                g.nodes,
+                g.generate_seconds,
+                g.bonds_seconds,
+                g.hundred_steps_seconds,
+                g.bytes as f64 / 1e6,
+                g.generate_seconds / g.hundred_steps_seconds
+            );
+        }
+    }
     Ok(results)
+}
+
+/// Grid generation cases (issue 6): 10⁶ nodes of seed 000's NB-NUG around 20 holes, and a
+/// 3D lattice with two levels of multi-grid refinement (three cell sizes) in its centre.
+pub const GRID_CASES: [&str; 2] = ["grid-nbnug-2d", "grid-multigrid-3d"];
+
+/// One measured grid: generation, bond search, and 100 PMB steps on all cores (5 steps
+/// measured, best of three), with the memory of nodes and bonds.
+#[derive(Debug, Clone)]
+pub struct GridBench {
+    pub case: String,
+    pub nodes: usize,
+    pub generate_seconds: f64,
+    pub bonds_seconds: f64,
+    pub hundred_steps_seconds: f64,
+    pub bytes: usize,
+}
+
+fn grid_case(name: &str) -> GridBench {
+    let started = Instant::now();
+    if name == "grid-nbnug-2d" {
+        // A 100 mm square, Δx = 0.1 mm, 5 × 4 holes of R = 2 mm (boxes of 2(R + δ)).
+        let size = 1e-4;
+        let holes: Vec<Shape> = (0..20)
+            .map(|k| Shape::Disk {
+                center: [
+                    0.01 + 0.02 * (k % 5) as f64,
+                    0.0125 + 0.025 * (k / 5) as f64,
+                ],
+                radius: 2e-3,
+            })
+            .collect();
+        let shape = Shape::Difference {
+            base: Box::new(Shape::Rectangle {
+                min: [0.0, 0.0],
+                max: [0.1, 0.1],
+            }),
+            subtract: holes,
+        };
+        let cloud = crate::deck::grids::nbnug_grid(
+            &shape,
+            size,
+            3.0 * size,
+            THICKNESS,
+            crate::deck::schema::CellKind::QuadDominant,
+            &[],
+        )
+        .expect("benchmark NB-NUG");
+        let generate = started.elapsed().as_secs_f64();
+        let body = Body::<2>::from_cloud(cloud, 3.0 * size, THICKNESS);
+        grid_steps(name, body, generate)
+    } else {
+        // A 60 mm cube of Δx = 1 mm refined twice (Δx/4) in its central 22 mm cube.
+        let shape = Shape::cube(3, 0.06);
+        let centre = Shape::Box {
+            min: [0.019, 0.019, 0.019],
+            max: [0.041, 0.041, 0.041],
+        };
+        let cloud = crate::discretize::multigrid::multigrid(
+            &shape,
+            3,
+            DX,
+            1.0,
+            &[crate::discretize::multigrid::Refinement {
+                region: centre,
+                level: 2,
+            }],
+        )
+        .expect("benchmark multi-grid");
+        let generate = started.elapsed().as_secs_f64();
+        let mut body = Body::<3>::from_cloud(cloud, 3.0 * DX, 1.0);
+        for i in 0..body.len() {
+            body.horizons[i] = 3.0 * body.cell_sizes[i];
+        }
+        grid_steps(name, body, generate)
+    }
+}
+
+/// Bond search and steps of a PMB model (each node's micromodulus at its own horizon).
+fn grid_steps<const D: usize>(name: &str, body: Body<D>, generate_seconds: f64) -> GridBench {
+    let started = Instant::now();
+    let bonds = build_bonds(&body, PartialVolume::Hhb, &[]);
+    let bonds_seconds = started.elapsed().as_secs_f64();
+    let bytes =
+        body.len() * crate::memory::bytes_per_node(D, 0) + bonds.len() * Bonds::BYTES_PER_BOND;
+    let h = body.horizons[0];
+    let material = Pmb::calibrated(
+        E,
+        RHO,
+        dim_of::<D>(),
+        MicromodulusProfile::Constant,
+        h,
+        THICKNESS,
+    )
+    .with_horizons(&body.horizons);
+    let nodes = body.len();
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let r = measure(
+        name,
+        (body, bonds, PartialVolume::Hhb),
+        material,
+        stretch(),
+        5,
+        cores,
+    );
+    GridBench {
+        case: name.to_string(),
+        nodes,
+        generate_seconds,
+        bonds_seconds,
+        hundred_steps_seconds: 100.0 * nodes as f64 / r.node_steps_per_second,
+        bytes,
+    }
 }
 
 #[cfg(test)]

@@ -42,9 +42,17 @@ pub fn build_bonds<const D: usize>(
             ..Default::default()
         };
     }
-    let max_reach =
-        body.max_horizon() + rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max), D);
-    let grid = CellGrid::new(body, max_reach);
+    // Node i looks as far as any j can be from it in i's own horizon, δ_i + reach(r_max). A
+    // pair that only j's horizon joins (j coarse, i fine) is found from j, and added to i's
+    // family below; with one radius for every node each side finds it by itself.
+    let r_max = rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max), D);
+    let radius: Vec<f64> = body.horizons.iter().map(|h| h + r_max).collect();
+    let max_radius = radius.iter().cloned().fold(0.0, f64::max);
+    let min_radius = radius.iter().cloned().fold(f64::INFINITY, f64::min);
+    let one_radius = min_radius == max_radius;
+    // Cells no smaller than a quarter of the largest radius: a fine node scans few nodes,
+    // a coarse one at most 9^D cells.
+    let grid = CellGrid::new(body, min_radius.max(0.25 * max_radius));
 
     let chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..n)
         .collect::<Vec<_>>()
@@ -57,7 +65,7 @@ pub fn build_bonds<const D: usize>(
             for &i in nodes {
                 family.clear();
                 let xi = &body.positions[i];
-                grid.for_each_candidate(xi.as_slice(), |j| {
+                grid.for_each_candidate(xi.as_slice(), radius[i], |j| {
                     if j == i {
                         return;
                     }
@@ -87,6 +95,11 @@ pub fn build_bonds<const D: usize>(
         })
         .collect();
 
+    let chunks = if one_radius {
+        chunks
+    } else {
+        with_reverse_pairs(n, chunks)
+    };
     let total: usize = chunks.iter().map(|c| c.1.len()).sum();
     let mut bonds = Bonds {
         offsets: Vec::with_capacity(n + 1),
@@ -105,7 +118,90 @@ pub fn build_bonds<const D: usize>(
     bonds
 }
 
-/// A uniform grid of cells of side ≥ the search radius; nodes are binned by counting sort.
+/// Adds to each family the nodes that found it but that it did not find (the pairs only the
+/// other node's horizon joins), keeping every family sorted and free of repeats.
+fn with_reverse_pairs(
+    n: usize,
+    chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)>,
+) -> Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> {
+    // Flatten the searched families into CSR form.
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0usize);
+    let mut nbrs = Vec::new();
+    let mut lens = Vec::new();
+    for (counts, c_nbrs, c_lens) in chunks {
+        for c in counts {
+            offsets.push(offsets.last().unwrap() + c);
+        }
+        nbrs.extend(c_nbrs);
+        lens.extend(c_lens);
+    }
+    // The transpose: who found whom.
+    let mut t_start = vec![0usize; n + 1];
+    for &j in &nbrs {
+        t_start[j as usize + 1] += 1;
+    }
+    for k in 0..n {
+        t_start[k + 1] += t_start[k];
+    }
+    let mut fill = t_start.clone();
+    let mut t_items = vec![(0u32, 0.0f64); nbrs.len()];
+    for i in 0..n {
+        for b in offsets[i]..offsets[i + 1] {
+            let j = nbrs[b] as usize;
+            t_items[fill[j]] = (i as u32, lens[b]);
+            fill[j] += 1;
+        }
+    }
+    (0..n)
+        .collect::<Vec<_>>()
+        .par_chunks(CHUNK)
+        .map(|nodes| {
+            let mut counts = Vec::with_capacity(nodes.len());
+            let mut out_nbrs = Vec::new();
+            let mut out_lens = Vec::new();
+            for &i in nodes {
+                // Both lists are sorted by neighbour: merge them.
+                let own = offsets[i]..offsets[i + 1];
+                let found_by = &t_items[t_start[i]..t_start[i + 1]];
+                let before = out_nbrs.len();
+                let (mut a, mut b) = (own.start, 0);
+                while a < own.end || b < found_by.len() {
+                    let next_own = (a < own.end).then(|| nbrs[a]);
+                    let next_rev = found_by.get(b).map(|p| p.0);
+                    match (next_own, next_rev) {
+                        (Some(x), Some(y)) if x == y => {
+                            out_nbrs.push(x);
+                            out_lens.push(lens[a]);
+                            a += 1;
+                            b += 1;
+                        }
+                        (Some(x), Some(y)) if x < y => {
+                            out_nbrs.push(x);
+                            out_lens.push(lens[a]);
+                            a += 1;
+                        }
+                        (Some(x), None) => {
+                            out_nbrs.push(x);
+                            out_lens.push(lens[a]);
+                            a += 1;
+                        }
+                        (_, Some(y)) => {
+                            out_nbrs.push(y);
+                            out_lens.push(found_by[b].1);
+                            b += 1;
+                        }
+                        (None, None) => unreachable!(),
+                    }
+                }
+                counts.push(out_nbrs.len() - before);
+            }
+            (counts, out_nbrs, out_lens)
+        })
+        .collect()
+}
+
+/// A uniform grid of cells; nodes are binned by counting sort.
 struct CellGrid {
     lo: [f64; 3],
     size: f64,
@@ -183,16 +279,17 @@ impl CellGrid {
         }
     }
 
-    /// Calls `f` for every node in the 3^D cells around `p`.
-    fn for_each_candidate(&self, p: &[f64], mut f: impl FnMut(usize)) {
+    /// Calls `f` for every node in the cells within `radius` of `p`'s cell.
+    fn for_each_candidate(&self, p: &[f64], radius: f64, mut f: impl FnMut(usize)) {
         let mut q = [0isize; 3];
         for k in 0..self.dim {
             q[k] = (((p[k] - self.lo[k]) / self.size) as isize).min(self.dims[k] as isize - 1);
         }
+        let reach = (radius / self.size).ceil().max(1.0) as isize;
         let (rz, ry) = if self.dim == 3 {
-            (1isize, 1isize)
+            (reach, reach)
         } else {
-            (0, 1)
+            (0, reach)
         };
         for dz in -rz..=rz {
             let z = q[2] + dz;
@@ -205,12 +302,67 @@ impl CellGrid {
                     continue;
                 }
                 let row = (z as usize * self.dims[1] + y as usize) * self.dims[0];
-                let x0 = (q[0] - 1).max(0) as usize;
-                let x1 = ((q[0] + 1) as usize).min(self.dims[0] - 1);
+                let x0 = (q[0] - reach).max(0) as usize;
+                let x1 = ((q[0] + reach).max(0) as usize).min(self.dims[0] - 1);
                 for &i in &self.items[self.start[row + x0]..self.start[row + x1 + 1]] {
                     f(i);
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::discretize::multigrid::{multigrid, Refinement};
+    use crate::geometry::Shape;
+
+    /// The families against the rule applied to every pair, on a 3-level multi-grid whose
+    /// horizons follow the cells (δ_i = 3Δx_i): pairs that only the coarse node's horizon joins
+    /// must be in both families.
+    #[test]
+    fn families_match_all_pairs_on_a_multigrid() {
+        for rule in [PartialVolume::Hhb, PartialVolume::None] {
+            let cloud = multigrid(
+                &Shape::cube(2, 0.02),
+                2,
+                1e-3,
+                1.0,
+                &[Refinement {
+                    region: Shape::Rectangle {
+                        min: [0.006, 0.006],
+                        max: [0.012, 0.012],
+                    },
+                    level: 2,
+                }],
+            )
+            .unwrap();
+            let mut body = Body::<2>::from_cloud(cloud, 3e-3, 1.0);
+            for i in 0..body.len() {
+                body.horizons[i] = 3.0 * body.cell_sizes[i];
+            }
+            let bonds = build_bonds(&body, rule, &[]);
+            let mut joined_by_one_side = 0;
+            for i in 0..body.len() {
+                let mut expected = Vec::new();
+                for j in 0..body.len() {
+                    let len = (body.positions[j] - body.positions[i]).norm();
+                    let ij = body.horizons[i] + rule.reach(body.cell_sizes[j], 2);
+                    let ji = body.horizons[j] + rule.reach(body.cell_sizes[i], 2);
+                    let inside = match rule {
+                        PartialVolume::None => len <= ij.max(ji),
+                        _ => len < ij.max(ji),
+                    };
+                    if j != i && inside {
+                        expected.push(j as u32);
+                        joined_by_one_side += (len >= ij.min(ji)) as usize;
+                    }
+                }
+                let got: Vec<u32> = bonds.family(i).map(|b| bonds.neighbors[b]).collect();
+                assert_eq!(got, expected, "node {i}");
+            }
+            assert!(joined_by_one_side > 100, "the test needs one-sided pairs");
         }
     }
 }
