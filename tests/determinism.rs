@@ -172,6 +172,10 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
             "type = \"lps\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ninfluence = \"gaussian\"\ndamage = { type = \"critical_energy\", tension_only = true }",
         ),
         (
+            "pmb-critical-energy",
+            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"critical_energy\" }",
+        ),
+        (
             "correspondence-critical-energy",
             "type = \"correspondence\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ndamage = { type = \"critical_energy\" }",
         ),

@@ -24,7 +24,7 @@ fn compare<M: Material<3> + Clone>(name: &str, material: M, rule: PartialVolume)
 
 /// One run of `compare_with`: forces, status bytes and history after the evaluations, and the
 /// bond entries broken after the first evaluation.
-type Run = (Vec<Vector<3>>, Vec<u8>, Vec<f64>, usize);
+type Run<const D: usize> = (Vec<Vector<D>>, Vec<u8>, Vec<f64>, usize);
 
 /// How `run` loads the lattice: the displacement field scaled by each of `ramp` in turn, one
 /// evaluation each; with `no_fail`, the nodes of one face may not fail.
@@ -53,14 +53,14 @@ fn compare_with<M: Material<3> + Clone>(
 
 /// `compare_with` under a given loading; returns the generic run's bond entries broken after
 /// its first and its last evaluation.
-fn compare_loaded<M: Material<3> + Clone>(
+fn compare_loaded<const D: usize, M: Material<D> + Clone>(
     name: &str,
     material: M,
     damage: Damage,
     rule: PartialVolume,
     loading: Loading,
 ) -> (usize, usize) {
-    let mut runs: Vec<Run> = Vec::new();
+    let mut runs: Vec<Run<D>> = Vec::new();
     for (vector, threads) in [(true, 1), (true, 2), (false, 1)] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -118,15 +118,16 @@ fn history_values(history: &[f64], bonds: usize) -> Vec<Vec<f64>> {
     out
 }
 
-fn run<M: Material<3> + Clone>(
+fn run<const D: usize, M: Material<D> + Clone>(
     material: &M,
     damage: Damage,
     rule: PartialVolume,
     vector: bool,
     loading: Loading,
-) -> Run {
+) -> Run<D> {
     {
-        let (mut body, bonds) = lattice_body::<3>(9, 1e-3, 3.0, rule);
+        // 9 cells a side in 3D, 17 in 2D (families of about 120 and 30 bonds).
+        let (mut body, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
         if loading.no_fail {
             for i in 0..body.len() {
                 body.no_fail[i] = body.positions[i][0] < 2e-3;
@@ -139,7 +140,7 @@ fn run<M: Material<3> + Clone>(
         for &scale in loading.ramp {
             for i in 0..body.len() {
                 // A stretch field large enough to break some bonds (s0 = 1e-3 below).
-                let u = Vector::<3>::from_fn(|k, _| {
+                let u = Vector::<D>::from_fn(|k, _| {
                     scale * 2e-3 * body.positions[i][k] * (1.0 + 0.5 * noise(3 * i + k))
                 });
                 sim.state.set_displacement(&body, i, u);
@@ -158,7 +159,10 @@ fn run<M: Material<3> + Clone>(
 }
 
 /// Same bonds broken, forces within round-off.
-fn check((name, fv, sv): (&str, &[Vector<3>], &[u8]), (fg, sg): (&[Vector<3>], &[u8])) {
+fn check<const D: usize>(
+    (name, fv, sv): (&str, &[Vector<D>], &[u8]),
+    (fg, sg): (&[Vector<D>], &[u8]),
+) {
     assert_eq!(sv, sg, "{name}: broken bonds differ");
     assert!(
         sv.iter().any(|&s| s != 0),
@@ -251,24 +255,46 @@ fn softening_kernel_matches_the_generic_loop() {
 
 #[test]
 fn critical_energy_kernels_match_the_generic_loop() {
-    let dim = Dimensionality::ThreeD;
+    energy_cases::<3>(Dimensionality::ThreeD);
+}
+
+#[test]
+fn critical_energy_kernels_match_the_generic_loop_in_2d() {
+    energy_cases::<2>(Dimensionality::PlaneStress);
+}
+
+/// PMB (constant and conical micromodulus) and LPS under critical energy, tension only or
+/// not, both partial-volume rules, in dimension D.
+fn energy_cases<const D: usize>(dim: Dimensionality)
+where
+    peridyn::material::Pmb: Material<D>,
+    peridyn::material::Lps: Material<D>,
+{
     for rule in [PartialVolume::Hhb, PartialVolume::None] {
         for tension_only in [false, true] {
             let case =
-                |label: &str| format!("{label} energy, tension only {tension_only}, {rule:?}");
-            energy_case(
+                |label: &str| format!("{label} {D}D energy, tension only {tension_only}, {rule:?}");
+            energy_case::<D, _>(
                 &case("pmb"),
                 pmb(dim, 70e9, 3e-3, MicromodulusProfile::Constant),
+                dim,
                 tension_only,
                 rule,
             );
-            energy_case(
+            energy_case::<D, _>(
                 &case("pmb conical"),
                 pmb(dim, 70e9, 3e-3, MicromodulusProfile::Conical),
+                dim,
                 tension_only,
                 rule,
             );
-            energy_case(&case("lps"), lps(dim, 70e9, 0.3, 3e-3), tension_only, rule);
+            energy_case::<D, _>(
+                &case("lps"),
+                lps(dim, 70e9, 0.3, 3e-3),
+                dim,
+                tension_only,
+                rule,
+            );
         }
     }
 }
@@ -277,19 +303,15 @@ fn critical_energy_kernels_match_the_generic_loop() {
 /// 0.7, then all of the stretch field of `run`) so that the work grows along the path and
 /// bonds break at the first and at later evaluations; a face of no-fail nodes keeps bonds
 /// that would break.
-fn energy_case<M: Material<3> + Clone>(
+fn energy_case<const D: usize, M: Material<D> + Clone>(
     name: &str,
     material: M,
+    dim: Dimensionality,
     tension_only: bool,
     rule: PartialVolume,
 ) {
     let law = CriticalEnergy {
-        wc: PerNode::Uniform(CriticalEnergy::critical_energy(
-            300.0,
-            3e-3,
-            Dimensionality::ThreeD,
-            1.0,
-        )),
+        wc: PerNode::Uniform(CriticalEnergy::critical_energy(300.0, 3e-3, dim, THICKNESS)),
         tension_only,
     };
     let loading = Loading {

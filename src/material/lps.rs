@@ -245,8 +245,8 @@ impl<const D: usize> Material<D> for Lps {
         nb: &mut NodeBonds,
         w: &UniformWeights,
     ) -> Option<(LpsPoint, u64)> {
-        if nb.softening.is_some() {
-            return None; // no LPS kernel for softening
+        if nb.softening.is_some() || nb.dim != 3 {
+            return None; // no LPS kernel for softening, nor a 2D pre-pass kernel
         }
         let law = self.law()?;
         // SAFETY: forwarded from the caller.
@@ -275,6 +275,9 @@ impl<const D: usize> Material<D> for Lps {
             return Some(unsafe {
                 simd_energy::lps_force_work(nb, &law, w, &energy, theta, &self.inv_m)
             });
+        }
+        if nb.dim != 3 {
+            return None; // the critical-stretch kernel is 3D only
         }
         // SAFETY: forwarded from the caller.
         Some((

@@ -25,7 +25,9 @@ pub fn available() -> bool {
 /// The family of node i as a kernel sees it.
 pub struct NodeBonds<'a> {
     pub i: usize,
-    /// Current positions, flat x, y, z.
+    /// Dimension: 3, or 2 for the kernels that implement it (`simd_energy`; see `planar`).
+    pub dim: usize,
+    /// Current positions, flat x, y, z (x, y in 2D).
     pub current: &'a [f64],
     pub neighbors: &'a [u32],
     pub ref_lengths: &'a [f64],
@@ -57,6 +59,7 @@ impl<'a> NodeBonds<'a> {
         let r = bonds.family(i);
         NodeBonds {
             i,
+            dim: 3,
             current,
             neighbors: &bonds.neighbors[r.clone()],
             ref_lengths: &bonds.ref_lengths[r],
@@ -75,6 +78,12 @@ impl<'a> NodeBonds<'a> {
         self.s0 = None;
         self.softening = Some(law);
         self.history = history;
+        self
+    }
+
+    /// The same family in 2D: `current` holds x, y per node.
+    pub fn planar(mut self) -> Self {
+        self.dim = 2;
         self
     }
 

@@ -1,5 +1,5 @@
-//! AVX2 bond loops under a uniform critical-energy law (x86-64, 3D, uniform grids): the PMB
-//! force and the LPS force pass. Same pair force, work record, failure rule and arithmetic as
+//! AVX2 bond loops under a uniform critical-energy law (x86-64, 2D and 3D, uniform grids): the
+//! PMB force and the LPS force pass. Same pair force, work record, failure rule and arithmetic as
 //! the generic loop (`solver::forces` with `UniformCriticalEnergy::on_work`): the work since
 //! the previous evaluation by the trapezoidal rule, w += ½ (f_prev + f)(e − e_prev), with f and
 //! e kept as two f32 in one word (`damage::critical_energy`; Foster, Silling & Chen 2011,
@@ -9,11 +9,11 @@
 //! identical for any thread count. `tests/kernels.rs` checks them against the generic loop.
 //!
 //! The LPS pre-pass needs only the bond status under this law and runs the ordinary kernel
-//! (`simd::lps_dilatation_sum`, with no failure decided).
+//! in 3D (`simd::lps_dilatation_sum`, with no failure decided), the generic loop in 2D.
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::avx::{bond_vectors, intact, omega, own_position, phi, sum};
-use super::simd::{length, LpsLaw, NodeBonds, PmbLaw};
+use super::simd::avx::{bond_vectors, intact, omega, phi, sum};
+use super::simd::{LpsLaw, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::damage::critical_energy::UniformCriticalEnergy;
 use crate::damage::{DamageLaw, Work};
@@ -180,8 +180,8 @@ impl PairForce for LpsPair<'_> {
 /// PMB force density on node i under a uniform critical-energy law, and the bonds broken.
 ///
 /// # Safety
-/// `simd::available()` must be true and every neighbour index below `current.len() / 3`;
-/// `nb.history` holds two words per bond of the family.
+/// `simd::available()` must be true and every neighbour index below
+/// `current.len() / nb.dim`; `nb.history` holds two words per bond of the family.
 #[cfg(target_arch = "x86_64")]
 pub unsafe fn pmb_force_work(
     nb: &mut NodeBonds,
@@ -189,8 +189,14 @@ pub unsafe fn pmb_force_work(
     w: &UniformWeights,
     energy: &UniformCriticalEnergy,
 ) -> ([f64; 3], u64) {
+    let pair = PmbPair(law);
     // SAFETY: forwarded from the caller.
-    unsafe { force_with_work(nb, w, energy, &PmbPair(law)) }
+    unsafe {
+        match nb.dim {
+            2 => force_with_work::<2, _>(nb, w, energy, &pair),
+            _ => force_with_work::<3, _>(nb, w, energy, &pair),
+        }
+    }
 }
 
 /// LPS force density on node i under a uniform critical-energy law, from the dilatations and
@@ -210,7 +216,12 @@ pub unsafe fn lps_force_work(
     {
         let pair = LpsPair { law, theta, inv_m };
         // SAFETY: forwarded from the caller.
-        unsafe { force_with_work(nb, w, energy, &pair) }
+        unsafe {
+            match nb.dim {
+                2 => force_with_work::<2, _>(nb, w, energy, &pair),
+                _ => force_with_work::<3, _>(nb, w, energy, &pair),
+            }
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -219,17 +230,38 @@ pub unsafe fn lps_force_work(
     }
 }
 
-/// The force pass of one node under the law: for every intact bond of non-zero length, the
-/// pair force, its work recorded, failure decided, and the force of the bonds that hold summed.
+/// Deformed bond vectors (x, y, and z = 0) and lengths of bonds b..b+4 in 2D, as
+/// `simd::avx::bond_vectors` in 3D (the generic loop's |y| = sqrt(x² + y²)).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn force_with_work<P: PairForce>(
+#[inline]
+unsafe fn bond_vectors_2d(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
+    let base = nb.current.as_ptr();
+    let row = |lane: usize| _mm_loadu_pd(base.add(2 * nb.neighbors[b + lane] as usize));
+    // [x0, y0, x2, y2] and [x1, y1, x3, y3].
+    let even = _mm256_set_m128d(row(2), row(0));
+    let odd = _mm256_set_m128d(row(3), row(1));
+    let dx = _mm256_sub_pd(_mm256_unpacklo_pd(even, odd), yi[0]);
+    let dy = _mm256_sub_pd(_mm256_unpackhi_pd(even, odd), yi[1]);
+    let len = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)));
+    [dx, dy, _mm256_setzero_pd(), len]
+}
+
+/// The force pass of one node under the law in dimension D: for every intact bond of non-zero
+/// length, the pair force, its work recorded, failure decided, and the force of the bonds that
+/// hold summed (z = 0 in 2D).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn force_with_work<const D: usize, P: PairForce>(
     nb: &mut NodeBonds,
     w: &UniformWeights,
     energy: &UniformCriticalEnergy,
     pair: &P,
 ) -> ([f64; 3], u64) {
-    let yi = own_position(nb);
+    let i = nb.i;
+    let own = |a: usize| if a < D { nb.current[D * i + a] } else { 0.0 };
+    let yi = [own(0), own(1), own(2)];
+    let yi_lanes = yi.map(|c| _mm256_set1_pd(c));
     let (half, zero) = (_mm256_set1_pd(0.5), _mm256_setzero_pd());
     let (wc, volume) = (_mm256_set1_pd(energy.wc), _mm256_set1_pd(w.node.volume));
     // The f32 halves of four packed words [e, f] (low, high): f of the four, then e.
@@ -238,7 +270,11 @@ unsafe fn force_with_work<P: PairForce>(
     let mut broke = 0;
     let mut b = 0;
     while b + 4 <= nb.neighbors.len() {
-        let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+        let [dx, dy, dz, len] = if D == 3 {
+            bond_vectors(nb, b, yi_lanes)
+        } else {
+            bond_vectors_2d(nb, b, yi_lanes)
+        };
         let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
         // Intact and of non-zero length: the bonds the generic loop records work for.
         let mut keep = _mm256_and_pd(intact(nb.status, b), _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero));
@@ -301,29 +337,27 @@ unsafe fn force_with_work<P: PairForce>(
         }
         // The generic loop's y (per length) V.
         let pl = _mm256_and_pd(per_length, keep);
-        for (a, d) in [dx, dy, dz].into_iter().enumerate() {
+        for (a, d) in [dx, dy, dz].into_iter().enumerate().take(D) {
             acc[a] = _mm256_add_pd(acc[a], _mm256_mul_pd(_mm256_mul_pd(d, pl), volume));
         }
         b += 4;
     }
     let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
-    let i = nb.i;
-    let yi = [
-        nb.current[3 * i],
-        nb.current[3 * i + 1],
-        nb.current[3 * i + 2],
-    ];
     for b in b..nb.neighbors.len() {
         if nb.status[b] != INTACT {
             continue;
         }
         let j = nb.neighbors[b] as usize;
-        let d = [
-            nb.current[3 * j] - yi[0],
-            nb.current[3 * j + 1] - yi[1],
-            nb.current[3 * j + 2] - yi[2],
-        ];
-        let len = length(&d);
+        let mut d = [0.0; 3];
+        for a in 0..D {
+            d[a] = nb.current[D * j + a] - yi[a];
+        }
+        // In the lanes' order: (x² + y²) + z² in 3D.
+        let len = if D == 3 {
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+        } else {
+            (d[0] * d[0] + d[1] * d[1]).sqrt()
+        };
         if len <= 0.0 {
             continue;
         }
@@ -348,7 +382,7 @@ unsafe fn force_with_work<P: PairForce>(
         if nb.status[b] == BROKEN {
             continue;
         }
-        for a in 0..3 {
+        for a in 0..D {
             f[a] += d[a] * per_length * w.node.volume;
         }
     }
