@@ -99,8 +99,9 @@ impl PairForce for PmbPair<'_> {
 }
 
 /// LPS: (t_i φ + t_j φ)/|y| with t = (a θ ω|ξ| + b ω (e − c θ |ξ|)) / m (seed 002, Eqs. 3–5;
-/// `Lps::pair_force_per_length`), from the dilatations and 1/m of all nodes.
-struct LpsPair<'a> {
+/// `Lps::pair_force_per_length`), from the dilatations and 1/m of all nodes. One type per
+/// dimension D, so that each `lanes` has a single caller and is inlined into it.
+struct LpsPair<'a, const D: usize> {
     law: &'a LpsLaw,
     theta: &'a [f64],
     inv_m: &'a [f64],
@@ -135,7 +136,7 @@ unsafe fn lps_state(
     )
 }
 
-impl PairForce for LpsPair<'_> {
+impl<const D: usize> PairForce for LpsPair<'_, D> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -214,12 +215,11 @@ pub unsafe fn lps_force_work(
 ) -> ([f64; 3], u64) {
     #[cfg(target_arch = "x86_64")]
     {
-        let pair = LpsPair { law, theta, inv_m };
         // SAFETY: forwarded from the caller.
         unsafe {
             match nb.dim {
-                2 => force_with_work::<2, _>(nb, w, energy, &pair),
-                _ => force_with_work::<3, _>(nb, w, energy, &pair),
+                2 => force_with_work::<2, _>(nb, w, energy, &LpsPair::<2> { law, theta, inv_m }),
+                _ => force_with_work::<3, _>(nb, w, energy, &LpsPair::<3> { law, theta, inv_m }),
             }
         }
     }
