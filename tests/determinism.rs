@@ -6,13 +6,15 @@
 use peridyn::body::Body;
 use peridyn::bonds::search::build_bonds;
 use peridyn::bonds::{PartialVolume, Precrack};
-use peridyn::damage::CriticalStretch;
+use peridyn::damage::{CriticalEnergy, CriticalStretch, Damage, PerNode};
 use peridyn::deck::schema::{BlockDeck, Discretization, MaterialDeck, SolverDeck};
 use peridyn::deck::LoadedDeck;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
-use peridyn::material::{Dimensionality, Elasticity, Influence, Lps};
+use peridyn::material::{
+    Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
+};
 use peridyn::run::{run, RunOptions};
 use peridyn::solver::Simulation;
 use std::collections::BTreeMap;
@@ -170,6 +172,10 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
             "type = \"lps\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ninfluence = \"gaussian\"\ndamage = { type = \"critical_energy\", tension_only = true }",
         ),
         (
+            "pmb-critical-energy",
+            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"critical_energy\" }",
+        ),
+        (
             "correspondence-critical-energy",
             "type = \"correspondence\"\npoisson_ratio = 0.35\nfracture_energy = 300.0\ndamage = { type = \"critical_energy\" }",
         ),
@@ -226,8 +232,51 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
     assert_deterministic(&ld, "dual-horizon");
 }
 
+/// The 3D bar's elasticity and horizon.
+const BAR_E: f64 = 1.0e9;
+const BAR_DELTA: f64 = 3.0e-3;
+
+fn bar_elasticity() -> Elasticity {
+    Elasticity {
+        youngs_modulus: BAR_E,
+        poisson_ratio: 0.3,
+        dimensionality: Dimensionality::ThreeD,
+    }
+}
+
 /// 3D LPS through the API: a pre-cracked bar pulled at both ends until bonds break.
 fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
+    let material = Lps::new(
+        bar_elasticity(),
+        Influence::Constant,
+        BAR_DELTA,
+        1000.0,
+        1.0,
+    );
+    bar_3d_run(threads, material, CriticalStretch::new(2.0e-3).into())
+}
+
+/// A critical energy at which the pulled bar fractures (G0 = 0.1 J/m²), tension only.
+fn bar_energy() -> Damage {
+    CriticalEnergy {
+        wc: PerNode::Uniform(CriticalEnergy::critical_energy(
+            0.1,
+            BAR_DELTA,
+            Dimensionality::ThreeD,
+            1.0,
+        )),
+        tension_only: true,
+    }
+    .into()
+}
+
+/// The pre-cracked 3D bar with any material and damage law: 400 steps, then the bits of u, v,
+/// the force, the strain energy and the external work, the bond status and the bonds broken.
+fn bar_3d_run<M: Material<3>>(
+    threads: usize,
+    material: M,
+    damage: Damage,
+) -> (Vec<u64>, Vec<u8>, u64) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -235,7 +284,7 @@ fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
     pool.install(|| {
         let dx = 1.0e-3;
         let (nx, ny, nz) = (20usize, 8usize, 8usize);
-        let delta = 3.0 * dx;
+        let delta = BAR_DELTA;
         let (lx, ly, lz) = (nx as f64 * dx, ny as f64 * dx, nz as f64 * dx);
         let shape = Shape::Box {
             min: [0.0; 3],
@@ -259,12 +308,6 @@ fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
         });
         body.mark_no_fail(&left);
         body.mark_no_fail(&right);
-        let el = Elasticity {
-            youngs_modulus: 1.0e9,
-            poisson_ratio: 0.3,
-            dimensionality: Dimensionality::ThreeD,
-        };
-        let material = Lps::new(el, Influence::Constant, delta, 1000.0, 1.0);
         let mut loading = Loading::<3>::default();
         for (nodes, v) in [(left, -2.0), (right, 2.0)] {
             loading.conditions.push(BoundaryCondition {
@@ -280,7 +323,7 @@ fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
             body,
             bonds,
             material,
-            CriticalStretch::new(2.0e-3),
+            damage,
             PartialVolume::Hhb,
             loading,
             None,
@@ -321,4 +364,53 @@ fn lps_3d_api_is_bitwise_identical_with_1_and_2_threads() {
         u1 == u2,
         "displacement/velocity/force bits differ between 1 and 2 threads"
     );
+}
+
+/// The 3D bar breaking on energy, PMB and LPS (the AVX2 critical-energy kernels where the
+/// machine has them): the same bits with 1 and 2 threads.
+#[test]
+fn critical_energy_3d_api_is_bitwise_identical_with_1_and_2_threads() {
+    let lps = || {
+        Lps::new(
+            bar_elasticity(),
+            Influence::Constant,
+            BAR_DELTA,
+            1000.0,
+            1.0,
+        )
+    };
+    let pmb = || {
+        Pmb::calibrated(
+            BAR_E,
+            1000.0,
+            Dimensionality::ThreeD,
+            MicromodulusProfile::Constant,
+            BAR_DELTA,
+            1.0,
+        )
+    };
+    let runs = [
+        (
+            "LPS",
+            bar_3d_run(1, lps(), bar_energy()),
+            bar_3d_run(2, lps(), bar_energy()),
+        ),
+        (
+            "PMB",
+            bar_3d_run(1, pmb(), bar_energy()),
+            bar_3d_run(2, pmb(), bar_energy()),
+        ),
+    ];
+    for (label, (u1, s1, b1), (u2, s2, b2)) in runs {
+        println!(
+            "3D {label} bar on energy: {b1} directed bonds broken (1 thread) / {b2} (2 threads)"
+        );
+        assert!(b1 > 0, "the 3D {label} bar must fracture");
+        assert_eq!(b1, b2);
+        assert!(
+            s1 == s2,
+            "{label}: bond status differs between 1 and 2 threads"
+        );
+        assert!(u1 == u2, "{label}: bits differ between 1 and 2 threads");
+    }
 }

@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use peridyn::bonds::PartialVolume;
 use peridyn::damage::softening::{Shape, SofteningParameters};
-use peridyn::damage::{CriticalStretch, Damage, Softening};
+use peridyn::damage::{CriticalEnergy, CriticalStretch, Damage, PerNode, Softening};
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile};
 use peridyn::math::Vector;
 
@@ -22,8 +22,23 @@ fn compare<M: Material<3> + Clone>(name: &str, material: M, rule: PartialVolume)
     compare_with(name, material, CriticalStretch::new(1e-3).into(), rule);
 }
 
-/// One run of `compare_with`: forces, status bytes and history after two evaluations.
-type Run = (Vec<Vector<3>>, Vec<u8>, Vec<f64>);
+/// One run of `compare_with`: forces, status bytes and history after the evaluations, and the
+/// bond entries broken after the first evaluation.
+type Run<const D: usize> = (Vec<Vector<D>>, Vec<u8>, Vec<f64>, usize);
+
+/// How `run` loads the lattice: the displacement field scaled by each of `ramp` in turn, one
+/// evaluation each; with `no_fail`, the nodes of one face may not fail.
+#[derive(Clone, Copy)]
+struct Loading {
+    ramp: &'static [f64],
+    no_fail: bool,
+}
+
+/// Two evaluations of the full field (the second sees the bonds broken by the first).
+const TWICE: Loading = Loading {
+    ramp: &[1.0, 1.0],
+    no_fail: false,
+};
 
 /// The same as `compare` under any damage law; also compares the bond histories, and checks
 /// that the vector run is bitwise the same on 1 and 2 threads.
@@ -33,15 +48,27 @@ fn compare_with<M: Material<3> + Clone>(
     damage: Damage,
     rule: PartialVolume,
 ) {
-    let mut runs: Vec<Run> = Vec::new();
+    compare_loaded(name, material, damage, rule, TWICE);
+}
+
+/// `compare_with` under a given loading; returns the generic run's bond entries broken after
+/// its first and its last evaluation.
+fn compare_loaded<const D: usize, M: Material<D> + Clone>(
+    name: &str,
+    material: M,
+    damage: Damage,
+    rule: PartialVolume,
+    loading: Loading,
+) -> (usize, usize) {
+    let mut runs: Vec<Run<D>> = Vec::new();
     for (vector, threads) in [(true, 1), (true, 2), (false, 1)] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
-        runs.push(pool.install(|| run(&material, damage.clone(), rule, vector)));
+        runs.push(pool.install(|| run(&material, damage.clone(), rule, vector, loading)));
     }
-    let (fv, sv, hv) = &runs[0];
+    let (fv, sv, hv, _) = &runs[0];
     assert!(
         runs[1].0 == *fv
             && runs[1].1 == *sv
@@ -52,49 +79,90 @@ fn compare_with<M: Material<3> + Clone>(
                 .eq(hv.iter().map(|h| h.to_bits())),
         "{name}: the vector kernel differs between 1 and 2 threads"
     );
-    let (fg, sg, hg) = &runs[2];
-    let hscale = hg.iter().fold(0.0f64, |m, h| m.max(h.abs()));
-    let hdiff = hv
+    let (fg, sg, hg, first) = &runs[2];
+    for (k, (v, g)) in history_values(hv, sv.len())
         .iter()
-        .zip(hg)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    assert!(
-        hdiff <= 1e-12 * hscale,
-        "{name}: histories differ by {hdiff} (scale {hscale})"
-    );
+        .zip(history_values(hg, sg.len()))
+        .enumerate()
+    {
+        let hscale = g.iter().fold(0.0f64, |m, h| m.max(h.abs()));
+        let hdiff = v
+            .iter()
+            .zip(&g)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(
+            hdiff <= 1e-12 * hscale,
+            "{name}: history values {k} differ by {hdiff} (scale {hscale})"
+        );
+    }
     check((name, fv, sv), (fg, sg));
+    (*first, sg.iter().filter(|&&s| s != 0).count())
 }
 
-fn run<M: Material<3> + Clone>(
+/// The history of `bonds` entries as lists of values, one per word of an entry; the second
+/// word of a two-word record (critical energy: w, then the previous force and extension as
+/// two f32 in one word) unpacked into its two values.
+fn history_values(history: &[f64], bonds: usize) -> Vec<Vec<f64>> {
+    let words = history.len() / bonds;
+    let mut out = vec![Vec::new(); if words == 2 { 3 } else { words }];
+    for entry in history.chunks(words.max(1)) {
+        for (k, &h) in entry.iter().enumerate() {
+            if words == 2 && k == 1 {
+                out[1].push(f32::from_bits((h.to_bits() >> 32) as u32) as f64);
+                out[2].push(f32::from_bits(h.to_bits() as u32) as f64);
+            } else {
+                out[k].push(h);
+            }
+        }
+    }
+    out
+}
+
+fn run<const D: usize, M: Material<D> + Clone>(
     material: &M,
     damage: Damage,
     rule: PartialVolume,
     vector: bool,
-) -> Run {
+    loading: Loading,
+) -> Run<D> {
     {
-        let (body, bonds) = lattice_body::<3>(9, 1e-3, 3.0, rule);
+        // 9 cells a side in 3D, 17 in 2D (families of about 120 and 30 bonds).
+        let (mut body, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
+        if loading.no_fail {
+            for i in 0..body.len() {
+                body.no_fail[i] = body.positions[i][0] < 2e-3;
+            }
+        }
         let mut sim = simulation(body, bonds, material.clone(), damage, rule);
         sim.engine.vector_kernels = vector;
         let body = sim.body.clone();
-        for i in 0..body.len() {
-            // A stretch field large enough to break some bonds (s0 = 1e-3 below).
-            let u = Vector::<3>::from_fn(|k, _| {
-                2e-3 * body.positions[i][k] * (1.0 + 0.5 * noise(3 * i + k))
-            });
-            sim.state.set_displacement(&body, i, u);
+        let mut first = None;
+        for &scale in loading.ramp {
+            for i in 0..body.len() {
+                // A stretch field large enough to break some bonds (s0 = 1e-3 below).
+                let u = Vector::<D>::from_fn(|k, _| {
+                    scale * 2e-3 * body.positions[i][k] * (1.0 + 0.5 * noise(3 * i + k))
+                });
+                sim.state.set_displacement(&body, i, u);
+            }
+            // Each pass after the first sees the bonds broken before.
+            sim.refresh_forces().unwrap();
+            first.get_or_insert_with(|| sim.state.status.iter().filter(|&&s| s != 0).count());
         }
-        sim.refresh_forces().unwrap();
-        sim.refresh_forces().unwrap(); // a second pass sees the bonds broken by the first
         (
             sim.state.force.clone(),
             sim.state.status.clone(),
             sim.state.history.clone(),
+            first.unwrap_or(0),
         )
     }
 }
 
 /// Same bonds broken, forces within round-off.
-fn check((name, fv, sv): (&str, &[Vector<3>], &[u8]), (fg, sg): (&[Vector<3>], &[u8])) {
+fn check<const D: usize>(
+    (name, fv, sv): (&str, &[Vector<D>], &[u8]),
+    (fg, sg): (&[Vector<D>], &[u8]),
+) {
     assert_eq!(sv, sg, "{name}: broken bonds differ");
     assert!(
         sv.iter().any(|&s| s != 0),
@@ -183,4 +251,77 @@ fn softening_kernel_matches_the_generic_loop() {
             }
         }
     }
+}
+
+#[test]
+fn critical_energy_kernels_match_the_generic_loop() {
+    energy_cases::<3>(Dimensionality::ThreeD);
+}
+
+#[test]
+fn critical_energy_kernels_match_the_generic_loop_in_2d() {
+    energy_cases::<2>(Dimensionality::PlaneStress);
+}
+
+/// PMB (constant and conical micromodulus) and LPS under critical energy, tension only or
+/// not, both partial-volume rules, in dimension D.
+fn energy_cases<const D: usize>(dim: Dimensionality)
+where
+    peridyn::material::Pmb: Material<D>,
+    peridyn::material::Lps: Material<D>,
+{
+    for rule in [PartialVolume::Hhb, PartialVolume::None] {
+        for tension_only in [false, true] {
+            let case =
+                |label: &str| format!("{label} {D}D energy, tension only {tension_only}, {rule:?}");
+            energy_case::<D, _>(
+                &case("pmb"),
+                pmb(dim, 70e9, 3e-3, MicromodulusProfile::Constant),
+                dim,
+                tension_only,
+                rule,
+            );
+            energy_case::<D, _>(
+                &case("pmb conical"),
+                pmb(dim, 70e9, 3e-3, MicromodulusProfile::Conical),
+                dim,
+                tension_only,
+                rule,
+            );
+            energy_case::<D, _>(
+                &case("lps"),
+                lps(dim, 70e9, 0.3, 3e-3),
+                dim,
+                tension_only,
+                rule,
+            );
+        }
+    }
+}
+
+/// One critical-energy comparison: w_c of G0 = 300 J/m² at δ = 3 mm, loaded by a ramp (0.4,
+/// 0.7, then all of the stretch field of `run`) so that the work grows along the path and
+/// bonds break at the first and at later evaluations; a face of no-fail nodes keeps bonds
+/// that would break.
+fn energy_case<const D: usize, M: Material<D> + Clone>(
+    name: &str,
+    material: M,
+    dim: Dimensionality,
+    tension_only: bool,
+    rule: PartialVolume,
+) {
+    let law = CriticalEnergy {
+        wc: PerNode::Uniform(CriticalEnergy::critical_energy(300.0, 3e-3, dim, THICKNESS)),
+        tension_only,
+    };
+    let loading = Loading {
+        ramp: &[0.4, 0.7, 1.0],
+        no_fail: true,
+    };
+    let (first, last) = compare_loaded(name, material, law.into(), rule, loading);
+    println!("{name}: {first} then {last} bond entries broken");
+    assert!(
+        0 < first && first < last,
+        "{name}: bonds must break at the first and at a later evaluation"
+    );
 }

@@ -91,6 +91,10 @@ impl DamageLaw for UniformCriticalEnergy {
     const ON_WORK: bool = true;
     const HALVES_TOGETHER: bool = true;
 
+    fn uniform_critical_energy(&self) -> Option<UniformCriticalEnergy> {
+        Some(*self)
+    }
+
     #[inline(always)]
     fn record_work(&self, work: Work, h: &mut [f64]) {
         accumulate_work(work, h);

@@ -126,6 +126,12 @@ pub trait DamageLaw: Sync + Send {
         None
     }
 
+    /// The law, if this is a critical-energy law with one w_c for every node (the PMB and
+    /// LPS AVX2 kernels implement it too).
+    fn uniform_critical_energy(&self) -> Option<critical_energy::UniformCriticalEnergy> {
+        None
+    }
+
     /// First sweep: records the stretch and breaks the halves that fail; `protected()`: an end
     /// is in a no-fail set (nothing is recorded, nothing breaks; asked only when needed).
     /// Returns 1 if node i's own half broke now.

@@ -391,6 +391,9 @@ impl<const D: usize> Material<D> for Correspondence {
         nb: &mut NodeBonds,
         w: &UniformWeights,
     ) -> Option<(Self::Point, u64)> {
+        if nb.work.is_some() {
+            return None; // no correspondence kernel for critical energy
+        }
         let law = self.kernel_law::<D>(nb.current.len() / 3)?;
         // SAFETY: forwarded from the caller; `reference` has one position per node.
         let (k, n, broke) = unsafe { simd_correspondence::correspondence_sums(nb, &law, w) };
@@ -410,6 +413,9 @@ impl<const D: usize> Material<D> for Correspondence {
         w: &UniformWeights,
         points: &[Self::Point],
     ) -> Option<([f64; 3], u64)> {
+        if nb.work.is_some() {
+            return None; // no correspondence kernel for critical energy
+        }
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
         // SAFETY: `CorrespondencePoint` is `repr(C)` of three D×D f64 matrices (B, C1, H),

@@ -4,6 +4,7 @@
 //! and θ, which is the dual-horizon form of the state-based equation of motion).
 
 use super::simd::{self, NodeBonds};
+use super::simd_energy;
 use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
@@ -244,8 +245,8 @@ impl<const D: usize> Material<D> for Lps {
         nb: &mut NodeBonds,
         w: &UniformWeights,
     ) -> Option<(LpsPoint, u64)> {
-        if nb.softening.is_some() {
-            return None; // no LPS kernel for softening
+        if nb.softening.is_some() || nb.dim != 3 {
+            return None; // no LPS kernel for softening, nor a 2D pre-pass kernel
         }
         let law = self.law()?;
         // SAFETY: forwarded from the caller.
@@ -269,6 +270,15 @@ impl<const D: usize> Material<D> for Lps {
         // SAFETY: `LpsPoint` is a transparent f64.
         let theta =
             unsafe { std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len()) };
+        if let Some(energy) = nb.work {
+            // SAFETY: forwarded from the caller.
+            return Some(unsafe {
+                simd_energy::lps_force_work(nb, &law, w, &energy, theta, &self.inv_m)
+            });
+        }
+        if nb.dim != 3 {
+            return None; // the critical-stretch kernel is 3D only
+        }
         // SAFETY: forwarded from the caller.
         Some((
             unsafe { simd::lps_force(nb, &law, w, theta, &self.inv_m) },

@@ -18,6 +18,7 @@ pub mod pmb;
 pub mod simd;
 pub mod simd_correspondence;
 pub mod simd_damage;
+pub mod simd_energy;
 pub mod surface_correction;
 
 pub use calibration::{Dimensionality, Elasticity};
@@ -252,8 +253,9 @@ pub trait Material<const D: usize>: Sync + Send {
     /// Mass density of node i (kg/m³).
     fn density(&self, i: usize) -> f64;
 
-    /// Optional AVX2 pre-pass of one node (3D, uniform grid, one critical stretch): its point
-    /// state and the bonds it broke, or `None` to use the generic loop.
+    /// Optional AVX2 pre-pass of one node (3D, uniform grid, one critical stretch, or the
+    /// uniform law `nb` carries): its point state and the bonds it broke, or `None` to use the
+    /// generic loop.
     ///
     /// # Safety
     /// `simd::available()` and every neighbour index below `nb.current.len() / 3`.
@@ -265,8 +267,9 @@ pub trait Material<const D: usize>: Sync + Send {
         None
     }
 
-    /// Optional AVX2 force pass of one node (3D, uniform grid, one critical stretch): its
-    /// force density and the bonds it broke, or `None` to use the generic loop.
+    /// Optional AVX2 force pass of one node (3D, uniform grid, one critical stretch, or the
+    /// uniform law `nb` carries: softening, critical energy): its force density and the bonds
+    /// it broke, or `None` to use the generic loop.
     ///
     /// # Safety
     /// As for `vector_prepass`.

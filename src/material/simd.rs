@@ -6,6 +6,7 @@
 
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::PartialVolume;
+use crate::damage::critical_energy::UniformCriticalEnergy;
 use crate::damage::softening::UniformSoftening;
 use crate::state::{BROKEN, INTACT};
 
@@ -24,7 +25,9 @@ pub fn available() -> bool {
 /// The family of node i as a kernel sees it.
 pub struct NodeBonds<'a> {
     pub i: usize,
-    /// Current positions, flat x, y, z.
+    /// Dimension: 3, or 2 for the kernels that implement it (`simd_energy`; see `planar`).
+    pub dim: usize,
+    /// Current positions, flat x, y, z (x, y in 2D).
     pub current: &'a [f64],
     pub neighbors: &'a [u32],
     pub ref_lengths: &'a [f64],
@@ -35,7 +38,11 @@ pub struct NodeBonds<'a> {
     /// A uniform softening law that this pass applies instead of a critical stretch (see
     /// `with_softening`); only the PMB kernel implements it.
     pub softening: Option<UniformSoftening>,
-    /// The family's history words (one per bond: the largest stretch) when `softening`.
+    /// A uniform critical-energy law that this pass applies instead of a critical stretch
+    /// (see `with_work`); the PMB and LPS force kernels implement it.
+    pub work: Option<UniformCriticalEnergy>,
+    /// The family's history words: one per bond (the largest stretch) when `softening`, two
+    /// per bond (the work record) when `work`.
     pub history: &'a mut [f64],
 }
 
@@ -52,6 +59,7 @@ impl<'a> NodeBonds<'a> {
         let r = bonds.family(i);
         NodeBonds {
             i,
+            dim: 3,
             current,
             neighbors: &bonds.neighbors[r.clone()],
             ref_lengths: &bonds.ref_lengths[r],
@@ -59,6 +67,7 @@ impl<'a> NodeBonds<'a> {
             no_fail,
             s0,
             softening: None,
+            work: None,
             history: &mut [],
         }
     }
@@ -68,6 +77,23 @@ impl<'a> NodeBonds<'a> {
         debug_assert_eq!(history.len(), self.neighbors.len());
         self.s0 = None;
         self.softening = Some(law);
+        self.history = history;
+        self
+    }
+
+    /// The same family in 2D: `current` holds x, y per node.
+    pub fn planar(mut self) -> Self {
+        self.dim = 2;
+        self
+    }
+
+    /// The same family under a uniform critical-energy law with its work records (two words
+    /// per bond, `damage::critical_energy`). Failure is then decided from the work in the
+    /// force pass, not from the stretch.
+    pub fn with_work(mut self, law: UniformCriticalEnergy, history: &'a mut [f64]) -> Self {
+        debug_assert_eq!(history.len(), 2 * self.neighbors.len());
+        self.s0 = None;
+        self.work = Some(law);
         self.history = history;
         self
     }
@@ -154,7 +180,7 @@ impl PmbLaw {
 
 impl LpsLaw {
     #[inline(always)]
-    fn omega(&self, l: f64) -> f64 {
+    pub(crate) fn omega(&self, l: f64) -> f64 {
         if self.inverse_influence {
             self.horizon / l
         } else {
@@ -162,7 +188,7 @@ impl LpsLaw {
         }
     }
     #[inline(always)]
-    fn state(&self, inv_m: f64, theta: f64, w: f64, e: f64, l: f64) -> f64 {
+    pub(crate) fn state(&self, inv_m: f64, theta: f64, w: f64, e: f64, l: f64) -> f64 {
         (self.a_vol * theta * w * l + self.b_dev * w * (e - self.c_iso * theta * l)) * inv_m
     }
 }
@@ -174,9 +200,10 @@ impl LpsLaw {
 pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
     #[cfg(target_arch = "x86_64")]
     {
-        match nb.softening {
-            Some(soft) => crate::material::simd_damage::pmb_force_softening(nb, law, w, &soft),
-            None => avx::pmb_force(nb, law, w),
+        match (nb.softening, nb.work) {
+            (Some(soft), _) => crate::material::simd_damage::pmb_force_softening(nb, law, w, &soft),
+            (None, Some(work)) => crate::material::simd_energy::pmb_force_work(nb, law, w, &work),
+            (None, None) => avx::pmb_force(nb, law, w),
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -406,7 +433,7 @@ pub(crate) mod avx {
     /// ω(|ξ|) on four lanes.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn omega(law: &LpsLaw, l: __m256d) -> __m256d {
+    pub(crate) unsafe fn omega(law: &LpsLaw, l: __m256d) -> __m256d {
         if law.inverse_influence {
             _mm256_div_pd(_mm256_set1_pd(law.horizon), l)
         } else {

@@ -304,15 +304,18 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let hw = history_words::<D, M, Dm>();
         debug_assert_eq!(state.history.len(), bonds.len() * hw);
         let mut newly_broken = 0u64;
-        // The AVX2 kernels, where the model has them: 3D, uniform grid, one critical stretch
-        // or one softening law, x86-64 with AVX2, and neighbour indices known to be in bounds
-        // (the kernels' gathers rely on it).
+        // The AVX2 kernels, where the model has them: uniform grid, in 3D one critical stretch,
+        // one softening law or one critical energy (with a central model's two-word work
+        // record), in 2D one critical energy, x86-64 with AVX2, and neighbour indices known to
+        // be in bounds (the kernels' gathers rely on it).
         let s0 = damage.uniform_critical_stretch();
         let softening = damage.uniform_softening().filter(|_| hw == 1);
-        let vector = if D == 3
+        let work = damage
+            .uniform_critical_energy()
+            .filter(|_| M::CENTRAL && hw == 2);
+        let vector = if ((D == 3 && (s0.is_some() || softening.is_some())) || work.is_some())
             && self.vector_kernels
             && self.neighbors_in_bounds
-            && (s0.is_some() || softening.is_some())
             && simd::available()
         {
             self.quad.uniform()
@@ -362,8 +365,14 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
                         if let Some(w) = &vector {
                             let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
+                            if D == 2 {
+                                nb = nb.planar();
+                            }
                             if let Some(law) = softening {
                                 nb = nb.with_softening(law, history);
+                            } else if let Some(law) = work {
+                                // The pre-pass reads only the status under this law.
+                                nb = nb.with_work(law, history);
                             }
                             // SAFETY: AVX2 is available and neighbour indices are in bounds.
                             if let Some((p, nb_broken)) =
@@ -417,8 +426,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     if let Some(w) = &vector {
                         let mut nb =
                             NodeBonds::of(i, flat, bonds, status, no_fail, decide.then_some(s0));
+                        if D == 2 {
+                            nb = nb.planar();
+                        }
                         if let Some(law) = softening {
                             nb = nb.with_softening(law, history);
+                        } else if let Some(law) = work {
+                            nb = nb.with_work(law, history);
                         }
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
                         if let Some((f, nb_broken)) =
