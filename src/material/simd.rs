@@ -165,16 +165,22 @@ pub(crate) fn tail(
 }
 
 impl PmbLaw {
-    /// c(ξ) φ̄ (|y| − |ξ|) / (|ξ||y|) V, the generic loop's `pair_force_per_length × V`.
+    /// c(ξ) ½(pm + pm) (|y| − |ξ|) / (|ξ||y|) with pm = φ μ of both halves: the generic loop's
+    /// `pair_force_per_length` (`Pmb::pair_weight`, seed 001 Eq. 4) on a uniform grid.
     #[inline(always)]
-    pub(crate) fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
+    pub(crate) fn per_length(&self, l: f64, len: f64, pm: f64) -> f64 {
         let c = if self.conical {
             self.c0 * (1.0 - l / self.horizon).max(0.0)
         } else {
             self.c0
         };
-        let phi = w.phi(l);
-        c * 0.5 * (phi + phi) * (len - l) / (l * len) * w.node.volume
+        c * 0.5 * (pm + pm) * (len - l) / (l * len)
+    }
+
+    /// `per_length` of an intact bond times V.
+    #[inline(always)]
+    pub(crate) fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
+        self.per_length(l, len, w.phi(l)) * w.node.volume
     }
 }
 
@@ -383,40 +389,15 @@ pub(crate) mod avx {
         w: &UniformWeights,
     ) -> ([f64; 3], u64) {
         let yi = own_position(nb);
-        let (c0, half, delta, one, zero) = (
-            _mm256_set1_pd(law.c0),
-            _mm256_set1_pd(0.5),
-            _mm256_set1_pd(law.horizon),
-            _mm256_set1_pd(1.0),
-            _mm256_setzero_pd(),
-        );
         let volume = _mm256_set1_pd(w.node.volume);
-        let mut acc = [zero; 3];
+        let mut acc = [_mm256_setzero_pd(); 3];
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
             let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = fail_and_keep(nb, b, len, l, &mut broke);
-            let c = if law.conical {
-                _mm256_mul_pd(
-                    c0,
-                    _mm256_max_pd(_mm256_sub_pd(one, _mm256_div_pd(l, delta)), zero),
-                )
-            } else {
-                c0
-            };
-            let p = phi(w, l);
-            let coef = _mm256_mul_pd(
-                _mm256_div_pd(
-                    _mm256_mul_pd(
-                        _mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(p, p)),
-                        _mm256_sub_pd(len, l),
-                    ),
-                    _mm256_mul_pd(l, len),
-                ),
-                volume,
-            );
+            let coef = _mm256_mul_pd(pmb_per_length(law, l, len, phi(w, l)), volume);
             add_force(&mut acc, coef, keep, [dx, dy, dz]);
             b += 4;
         }
@@ -428,6 +409,64 @@ pub(crate) mod avx {
             }
         });
         (f, broke)
+    }
+
+    /// `PmbLaw::per_length` on four lanes, in its arithmetic: c(ξ) ½(pm + pm)(|y| − |ξ|) /
+    /// (|ξ||y|), pm = φ μ (seed 001 Eq. 4).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn pmb_per_length(
+        law: &PmbLaw,
+        l: __m256d,
+        len: __m256d,
+        pm: __m256d,
+    ) -> __m256d {
+        let c0 = _mm256_set1_pd(law.c0);
+        let c = if law.conical {
+            let one_minus = _mm256_sub_pd(
+                _mm256_set1_pd(1.0),
+                _mm256_div_pd(l, _mm256_set1_pd(law.horizon)),
+            );
+            _mm256_mul_pd(c0, _mm256_max_pd(one_minus, _mm256_setzero_pd()))
+        } else {
+            c0
+        };
+        _mm256_div_pd(
+            _mm256_mul_pd(
+                _mm256_mul_pd(_mm256_mul_pd(c, _mm256_set1_pd(0.5)), _mm256_add_pd(pm, pm)),
+                _mm256_sub_pd(len, l),
+            ),
+            _mm256_mul_pd(l, len),
+        )
+    }
+
+    /// `LpsLaw::state` on four lanes, in its order: t = (a θ ω |ξ| + b ω (e − c θ |ξ|)) / m
+    /// (seed 002, Eqs. 3–5).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn lps_state(
+        law: &LpsLaw,
+        theta: __m256d,
+        inv_m: __m256d,
+        om: __m256d,
+        e: __m256d,
+        l: __m256d,
+    ) -> __m256d {
+        let (a, bd, c) = (
+            _mm256_set1_pd(law.a_vol),
+            _mm256_set1_pd(law.b_dev),
+            _mm256_set1_pd(law.c_iso),
+        );
+        _mm256_mul_pd(
+            _mm256_add_pd(
+                _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(a, theta), om), l),
+                _mm256_mul_pd(
+                    _mm256_mul_pd(bd, om),
+                    _mm256_sub_pd(e, _mm256_mul_pd(_mm256_mul_pd(c, theta), l)),
+                ),
+            ),
+            inv_m,
+        )
     }
 
     /// ω(|ξ|) on four lanes.
@@ -481,26 +520,8 @@ pub(crate) mod avx {
     ) -> [f64; 3] {
         let i = nb.i;
         let yi = own_position(nb);
-        let (a, bd, c) = (
-            _mm256_set1_pd(law.a_vol),
-            _mm256_set1_pd(law.b_dev),
-            _mm256_set1_pd(law.c_iso),
-        );
         let (theta_i, inv_m_i) = (_mm256_set1_pd(theta[i]), _mm256_set1_pd(inv_m[i]));
         let volume = _mm256_set1_pd(w.node.volume);
-        // t = (a θ ω |ξ| + b ω (e − c θ |ξ|)) / m, the generic `scalar_state`'s order.
-        let state = |th: __m256d, im: __m256d, om: __m256d, e: __m256d, l: __m256d| {
-            _mm256_mul_pd(
-                _mm256_add_pd(
-                    _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(a, th), om), l),
-                    _mm256_mul_pd(
-                        _mm256_mul_pd(bd, om),
-                        _mm256_sub_pd(e, _mm256_mul_pd(_mm256_mul_pd(c, th), l)),
-                    ),
-                ),
-                im,
-            )
-        };
         let mut acc = [_mm256_setzero_pd(); 3];
         let mut broke = 0;
         let mut b = 0;
@@ -512,8 +533,8 @@ pub(crate) mod avx {
             let theta_j = _mm256_set_pd(theta[j(3)], theta[j(2)], theta[j(1)], theta[j(0)]);
             let inv_m_j = _mm256_set_pd(inv_m[j(3)], inv_m[j(2)], inv_m[j(1)], inv_m[j(0)]);
             let (om, e, p) = (omega(law, l), _mm256_sub_pd(len, l), phi(w, l));
-            let ti = state(theta_i, inv_m_i, om, e, l);
-            let tj = state(theta_j, inv_m_j, om, e, l);
+            let ti = lps_state(law, theta_i, inv_m_i, om, e, l);
+            let tj = lps_state(law, theta_j, inv_m_j, om, e, l);
             let coef = _mm256_mul_pd(
                 _mm256_div_pd(
                     _mm256_add_pd(_mm256_mul_pd(ti, p), _mm256_mul_pd(tj, p)),

@@ -6,7 +6,7 @@
 //! `tests/kernels.rs` checks it against the generic loop.
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::avx::{add_force, bond_vectors, intact, own_position, phi, sum};
+use super::simd::avx::{add_force, bond_vectors, intact, own_position, phi, pmb_per_length, sum};
 use super::simd::{length, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::damage::softening::UniformSoftening;
@@ -65,13 +65,7 @@ pub unsafe fn pmb_force_softening(
     soft: &UniformSoftening,
 ) -> ([f64; 3], u64) {
     let yi = own_position(nb);
-    let (c0, half, delta, one, zero) = (
-        _mm256_set1_pd(law.c0),
-        _mm256_set1_pd(0.5),
-        _mm256_set1_pd(law.horizon),
-        _mm256_set1_pd(1.0),
-        _mm256_setzero_pd(),
-    );
+    let (one, zero) = (_mm256_set1_pd(1.0), _mm256_setzero_pd());
     let (s1, sc) = (_mm256_set1_pd(soft.s1), _mm256_set1_pd(soft.sc));
     let volume = _mm256_set1_pd(w.node.volume);
     let mut acc = [zero; 3];
@@ -117,27 +111,10 @@ pub unsafe fn pmb_force_softening(
                 _mm256_and_pd(intact(nb.status, b), _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero)),
             )
         };
-        let c = if law.conical {
-            _mm256_mul_pd(
-                c0,
-                _mm256_max_pd(_mm256_sub_pd(one, _mm256_div_pd(l, delta)), zero),
-            )
-        } else {
-            c0
-        };
         // c ½(φ μ + φ μ) (|y| − |ξ|)/(|ξ||y|) V: `Pmb::pair_weight` and
         // `pair_force_per_length` (seed 001, Eq. 4) with the halves' μ, times V.
         let pm = _mm256_mul_pd(phi(w, l), mu);
-        let coef = _mm256_mul_pd(
-            _mm256_div_pd(
-                _mm256_mul_pd(
-                    _mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(pm, pm)),
-                    e,
-                ),
-                _mm256_mul_pd(l, len),
-            ),
-            volume,
-        );
+        let coef = _mm256_mul_pd(pmb_per_length(law, l, len, pm), volume);
         add_force(&mut acc, coef, keep, [dx, dy, dz]);
         b += 4;
     }
@@ -159,13 +136,7 @@ pub unsafe fn pmb_force_softening(
         if let Some(mu) = soften_one(nb, soft, b, len, &mut broke) {
             // As in the lanes: c ½(φ μ + φ μ) (|y| − |ξ|)/(|ξ||y|) V (seed 001, Eq. 4).
             let l = nb.ref_lengths[b];
-            let cf = if law.conical {
-                law.c0 * (1.0 - l / law.horizon).max(0.0)
-            } else {
-                law.c0
-            };
-            let pm = w.phi(l) * mu;
-            let coef = cf * 0.5 * (pm + pm) * (len - l) / (l * len) * w.node.volume;
+            let coef = law.per_length(l, len, w.phi(l) * mu) * w.node.volume;
             for a in 0..3 {
                 f[a] += coef * d[a];
             }

@@ -12,7 +12,7 @@
 //! in 3D (`simd::lps_dilatation_sum`, with no failure decided), the generic loop in 2D.
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::avx::{bond_vectors, intact, omega, phi, sum};
+use super::simd::avx::{bond_vectors, intact, lps_state, omega, phi, pmb_per_length, sum};
 use super::simd::{LpsLaw, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::damage::critical_energy::UniformCriticalEnergy;
@@ -59,42 +59,12 @@ impl PairForce for PmbPair<'_> {
         len: __m256d,
         p: __m256d,
     ) -> __m256d {
-        let law = self.0;
-        let (c0, half, one, zero) = (
-            _mm256_set1_pd(law.c0),
-            _mm256_set1_pd(0.5),
-            _mm256_set1_pd(1.0),
-            _mm256_setzero_pd(),
-        );
-        let c = if law.conical {
-            _mm256_mul_pd(
-                c0,
-                _mm256_max_pd(
-                    _mm256_sub_pd(one, _mm256_div_pd(l, _mm256_set1_pd(law.horizon))),
-                    zero,
-                ),
-            )
-        } else {
-            c0
-        };
-        _mm256_div_pd(
-            _mm256_mul_pd(
-                _mm256_mul_pd(_mm256_mul_pd(c, half), _mm256_add_pd(p, p)),
-                _mm256_sub_pd(len, l),
-            ),
-            _mm256_mul_pd(l, len),
-        )
+        pmb_per_length(self.0, l, len, p)
     }
 
     #[inline(always)]
     fn one(&self, _i: usize, _j: usize, l: f64, len: f64, p: f64) -> f64 {
-        let law = self.0;
-        let c = if law.conical {
-            law.c0 * (1.0 - l / law.horizon).max(0.0)
-        } else {
-            law.c0
-        };
-        c * 0.5 * (p + p) * (len - l) / (l * len)
+        self.0.per_length(l, len, p)
     }
 }
 
@@ -105,35 +75,6 @@ struct LpsPair<'a, const D: usize> {
     law: &'a LpsLaw,
     theta: &'a [f64],
     inv_m: &'a [f64],
-}
-
-/// t of four lanes, `Lps::scalar_state`'s order.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn lps_state(
-    law: &LpsLaw,
-    theta: __m256d,
-    inv_m: __m256d,
-    om: __m256d,
-    e: __m256d,
-    l: __m256d,
-) -> __m256d {
-    let (a, bd, c) = (
-        _mm256_set1_pd(law.a_vol),
-        _mm256_set1_pd(law.b_dev),
-        _mm256_set1_pd(law.c_iso),
-    );
-    _mm256_mul_pd(
-        _mm256_add_pd(
-            _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(a, theta), om), l),
-            _mm256_mul_pd(
-                _mm256_mul_pd(bd, om),
-                _mm256_sub_pd(e, _mm256_mul_pd(_mm256_mul_pd(c, theta), l)),
-            ),
-        ),
-        inv_m,
-    )
 }
 
 impl<const D: usize> PairForce for LpsPair<'_, D> {

@@ -211,56 +211,53 @@ fn reference_energy<const D: usize>(pmb: &Pmb) -> f64 {
     pmb.elasticity.energy_density(&strain, D)
 }
 
-/// λ_i = W0 / Σ_j w_ij (1 for a node without bonds: it carries no energy to correct).
+/// λ_i = W0 / Σ_j w_ij: the first sweep of seed 000's iteration, from λ = 1.
 fn energy_ratio<const D: usize>(
     body: &Body<D>,
     bonds: &Bonds,
     quad: &Quadrature,
     pmb: &Pmb,
 ) -> Vec<f64> {
+    energy_sweep(body, bonds, quad, pmb, &vec![1.0; body.len()])
+}
+
+/// One sweep of seed 000 §2.5: λ_i W0 / Σ_j ½(λ_i + λ_j) w_ij for every node (a node without
+/// bonds keeps its factor: it carries no energy to correct).
+fn energy_sweep<const D: usize>(
+    body: &Body<D>,
+    bonds: &Bonds,
+    quad: &Quadrature,
+    pmb: &Pmb,
+    lambda: &[f64],
+) -> Vec<f64> {
     let w0 = reference_energy::<D>(pmb);
     (0..body.len())
         .into_par_iter()
         .map(|i| {
-            let w = bonds.family(i).fold(0.0, |acc, b| {
-                acc + half_energy(body, bonds, quad, pmb, i, b)
+            let w: f64 = bonds.family(i).fold(0.0, |acc, b| {
+                let j = bonds.neighbors[b] as usize;
+                acc + 0.5 * (lambda[i] + lambda[j]) * half_energy(body, bonds, quad, pmb, i, b)
             });
             if w > 0.0 {
-                w0 / w
+                lambda[i] * w0 / w
             } else {
-                1.0
+                lambda[i]
             }
         })
         .collect()
 }
 
-/// Seed 000 §2.5: λ_i ← λ_i W0 / Σ_j ½(λ_i + λ_j) w_ij, Jacobi sweeps (deterministic for any
-/// thread count) until the largest relative change is below [`TOLERANCE`].
+/// Seed 000 §2.5: Jacobi sweeps (deterministic for any thread count) until the largest
+/// relative change of a factor is below [`TOLERANCE`].
 fn energy_factors<const D: usize>(
     body: &Body<D>,
     bonds: &Bonds,
     quad: &Quadrature,
     pmb: &Pmb,
 ) -> Result<(Vec<f64>, usize), NotConverged> {
-    let w0 = reference_energy::<D>(pmb);
-    let n = body.len();
-    let mut lambda = vec![1.0; n];
+    let mut lambda = vec![1.0; body.len()];
     for iteration in 1..=MAX_ITERATIONS {
-        let next: Vec<f64> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let w: f64 = bonds.family(i).fold(0.0, |acc, b| {
-                    let j = bonds.neighbors[b] as usize;
-                    acc + 0.5 * (lambda[i] + lambda[j]) * half_energy(body, bonds, quad, pmb, i, b)
-                });
-                // A node without bonds carries no energy to correct.
-                if w > 0.0 {
-                    lambda[i] * w0 / w
-                } else {
-                    lambda[i]
-                }
-            })
-            .collect();
+        let next = energy_sweep(body, bonds, quad, pmb, &lambda);
         let (node, change) = next
             .iter()
             .zip(&lambda)
