@@ -14,8 +14,12 @@
 //! Only `crate::math::Vector` is imported from the crate: this layer sits below the solver and
 //! the observers, which may call it.
 
+pub mod crack_speed;
 pub mod crack_tip;
 
+pub use crack_speed::{
+    crack_speed, rayleigh_speed, wave_speeds, SpeedSample, WaveSetting, WaveSpeeds,
+};
 pub use crack_tip::{
     branch_history, crack_front, find_tip, Branch, CrackFront, SearchBox, Tip, TipSample,
     TipTracker,
