@@ -14,9 +14,11 @@
 //! Only `crate::math::Vector` is imported from the crate: this layer sits below the solver and
 //! the observers, which may call it.
 
+pub mod crack_path;
 pub mod crack_speed;
 pub mod crack_tip;
 
+pub use crack_path::{compare_paths, crack_path, pearson, PathComparison};
 pub use crack_speed::{
     crack_speed, rayleigh_speed, wave_speeds, SpeedSample, WaveSetting, WaveSpeeds,
 };
