@@ -14,10 +14,12 @@
 //! Only `crate::math::Vector` is imported from the crate: this layer sits below the solver and
 //! the observers, which may call it.
 
+pub mod branching;
 pub mod crack_path;
 pub mod crack_speed;
 pub mod crack_tip;
 
+pub use branching::{damaged_components, find_forks, Fork, ForkBranch};
 pub use crack_path::{compare_paths, crack_path, pearson, PathComparison};
 pub use crack_speed::{
     crack_speed, rayleigh_speed, wave_speeds, SpeedSample, WaveSetting, WaveSpeeds,
