@@ -4,6 +4,7 @@
 //! its `Bonds` (`bonds`), a material (`material`) and `Loading`; a `solver::Simulation`
 //! advances the `State`, and observers (`observe`, `plot`) write fields, histories and pictures.
 
+pub mod analysis;
 pub mod atomic_file;
 pub mod bench;
 pub mod body;

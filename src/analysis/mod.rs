@@ -1,0 +1,30 @@
+//! Fracture analysis on a damage field: pure functions of node positions, damage and time,
+//! with no dependence on the solver, so results can be recomputed from written fields and
+//! tested on synthetic data.
+//!
+//! - `crack_tip`: the tip of each branch (seed 000 Appendix 2, seed 002 §2.12) and, in 3D,
+//!   the crack front.
+//! - `crack_speed`: tip speed from a tip history, and the Rayleigh wave speed it is compared
+//!   with (seed 002).
+//! - `crack_path`: the crack as a 2D polyline and its Pearson correlation with a reference
+//!   path (seed 003 Eq. 17).
+//! - `branching`: connected damaged regions and the fork of a branching 2D crack, with the
+//!   branch angles.
+//!
+//! Only `crate::math::Vector` is imported from the crate: this layer sits below the solver and
+//! the observers, which may call it.
+
+pub mod branching;
+pub mod crack_path;
+pub mod crack_speed;
+pub mod crack_tip;
+
+pub use branching::{damaged_components, find_forks, Fork, ForkBranch};
+pub use crack_path::{compare_paths, crack_path, pearson, PathComparison};
+pub use crack_speed::{
+    crack_speed, rayleigh_speed, wave_speeds, SpeedSample, WaveSetting, WaveSpeeds,
+};
+pub use crack_tip::{
+    branch_history, crack_front, find_tip, Branch, CrackFront, SearchBox, Tip, TipSample,
+    TipTracker,
+};
