@@ -3,8 +3,8 @@
 
 use crate::damage::Damage;
 use crate::deck::build::{
-    build_constitution, build_model, explicit_settings, Constitution, MaterialChoice,
-    MaterialReport, Model,
+    build_constitution, build_model, solver_settings, Constitution, MaterialChoice, MaterialReport,
+    Model,
 };
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
@@ -14,7 +14,7 @@ use crate::observe::progress::Progress;
 use crate::observe::snapshots::Snapshots;
 use crate::observe::{Observer, StepView};
 use crate::solver::Fields;
-use crate::solver::{Simulation, StepError};
+use crate::solver::{QuasiStatic, QuasiStaticSettings, Simulation, StepError};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -64,8 +64,12 @@ pub struct ModelReport {
     /// Critical stretch of the first material (infinite when its law has none).
     pub critical_stretch: f64,
     pub p_wave_speed: f64,
+    /// "explicit" or "quasi-static (adaptive dynamic relaxation)".
+    pub solver: String,
+    /// Time step (s), or the load increment in pseudo-time of a quasi-static run.
     pub dt: f64,
     pub dt_stable: f64,
+    /// Steps, or load steps of a quasi-static run.
     pub steps: u64,
     pub end_time: f64,
     pub memory_bytes: usize,
@@ -142,18 +146,26 @@ impl std::fmt::Display for ModelReport {
                 writeln!(f, "                 note: {note}")?;
             }
         }
-        writeln!(
-            f,
-            "time step        dt = {:.4e} s (stable estimate {:.4e} s, ratio {:.3})",
-            self.dt,
-            self.dt_stable,
-            self.dt / self.dt_stable
-        )?;
-        writeln!(
-            f,
-            "run              {} steps, t_end = {:.4e} s",
-            self.steps, self.end_time
-        )?;
+        if self.solver == "explicit" {
+            writeln!(
+                f,
+                "time step        dt = {:.4e} s (stable estimate {:.4e} s, ratio {:.3})",
+                self.dt,
+                self.dt_stable,
+                self.dt / self.dt_stable
+            )?;
+            writeln!(
+                f,
+                "run              {} steps, t_end = {:.4e} s",
+                self.steps, self.end_time
+            )?;
+        } else {
+            writeln!(
+                f,
+                "solver           {}: {} load steps of {:.4e} to t = {:.4e}",
+                self.solver, self.steps, self.dt, self.end_time
+            )?;
+        }
         write!(
             f,
             "memory estimate  {:.1} MB",
@@ -288,7 +300,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
     material: M,
     rest: DamageAndReports,
 ) -> Result<(Simulation<D, M>, ModelReport), RunError> {
-    let settings = explicit_settings(&ld.deck);
+    let settings = solver_settings(&ld.deck);
     let started = Instant::now();
     let DamageAndReports {
         damage,
@@ -333,7 +345,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
     if !porosity.is_empty() {
         sim.refresh_forces()?;
     }
-    if let Some(dt) = settings.dt {
+    if let (Some(dt), None) = (settings.dt, &settings.quasi_static) {
         if dt > sim.dt_stable {
             return Err(ld
                 .locate(vec![DeckIssue::new("solver.dt", format!("dt = {dt:.4e} s exceeds the stable time step {:.4e} s (Silling–Askari estimate); lower dt or remove it to use safety_factor × the estimate", sim.dt_stable))])
@@ -343,8 +355,15 @@ pub fn prepare<const D: usize, M: Material<D>>(
     for iv in &initial_velocities {
         iv.apply(&sim.body, &mut sim.state);
     }
-    // Prescribed velocities win over initial ones on constrained components.
+    // Prescribed velocities win over initial ones on constrained components; a quasi-static
+    // run has none.
     sim.loading.apply_end_velocities(&mut sim.state, 0.0);
+    if settings.quasi_static.is_some() {
+        sim.state
+            .v
+            .iter_mut()
+            .for_each(|v| *v = crate::math::Vector::zeros());
+    }
     sim.counters.setup = started.elapsed();
     sim.counters.grid = build_time;
     let steps = settings
@@ -375,6 +394,11 @@ pub fn prepare<const D: usize, M: Material<D>>(
         micromodulus: first.micromodulus.unwrap_or(0.0),
         critical_stretch: first.critical_stretch.unwrap_or(f64::INFINITY),
         p_wave_speed: (el.p_wave_modulus() / sim.densities[0]).sqrt(),
+        solver: if settings.quasi_static.is_some() {
+            "quasi-static (adaptive dynamic relaxation)".into()
+        } else {
+            "explicit".into()
+        },
         dt: sim.dt,
         dt_stable: sim.dt_stable,
         steps,
@@ -418,10 +442,9 @@ fn run_model<const D: usize, M: Material<D>>(
     } else {
         report.steps.div_ceil(deck.output.snapshots).max(1)
     };
-    let history_every = if deck.output.history_interval == 0 {
-        u64::MAX
-    } else {
-        deck.output.history_interval
+    let history_every = match deck.history_interval() {
+        0 => u64::MAX,
+        k => k,
     };
     let title = if deck.title.is_empty() {
         ld.file
@@ -447,7 +470,10 @@ fn run_model<const D: usize, M: Material<D>>(
     ];
 
     let started = Instant::now();
-    let result = drive(&mut sim, report.steps, &mut observers);
+    let result = match solver_settings(deck).quasi_static {
+        None => drive(&mut sim, report.steps, &mut observers),
+        Some(qs) => drive_quasi_static(&mut sim, qs, report.steps, &mut observers),
+    };
     for o in observers.iter_mut() {
         o.finish()?;
     }
@@ -493,6 +519,30 @@ pub fn drive<const D: usize, M: Material<D>>(
     Ok(())
 }
 
+/// The quasi-static loop: `load_steps` equal load steps of pseudo-time `sim.dt`, each
+/// committed in one piece or, when it breaks too many bonds, in several (every committed piece
+/// is offered to observers).
+pub fn drive_quasi_static<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    settings: QuasiStaticSettings,
+    load_steps: u64,
+    observers: &mut [Box<dyn Observer<D>>],
+) -> Result<(), RunError> {
+    let increment = sim.dt;
+    let mut solver = QuasiStatic::new(sim, settings, increment);
+    offer(sim, observers, load_steps == 0)?;
+    for k in 1..=load_steps {
+        // The target from k, not by summing increments: no drift over many steps.
+        let target = k as f64 * increment;
+        while sim.state.time < target {
+            solver.advance(sim, target)?;
+            sim.check_finite()?;
+            offer(sim, observers, k == load_steps && sim.state.time >= target)?;
+        }
+    }
+    Ok(())
+}
+
 fn offer<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     observers: &mut [Box<dyn Observer<D>>],
@@ -523,6 +573,7 @@ fn write_resolved(
 ) -> Result<(), RunError> {
     // A point-cloud or mesh path is made absolute so the resolved deck runs from the results folder.
     let mut resolved = ld.deck.clone();
+    resolved.output.history_interval = Some(ld.deck.history_interval());
     if let crate::deck::schema::Discretization::PointCloud { file, .. }
     | crate::deck::schema::Discretization::Gmsh { file, .. } = &mut resolved.discretization
     {

@@ -42,6 +42,11 @@ pub struct State<const D: usize> {
     pub external_work: f64,
     /// Energy removed by viscous damping since the start (J).
     pub dissipated_viscous: f64,
+    /// The last step's time step (s), or its load increment in a quasi-static run.
+    pub dt: f64,
+    /// Force evaluations of the last step: 1 for an explicit step, the relaxation
+    /// iterations of a quasi-static load step.
+    pub iterations: u64,
 }
 
 impl<const D: usize> State<D> {
@@ -62,6 +67,8 @@ impl<const D: usize> State<D> {
             broken: 0,
             external_work: 0.0,
             dissipated_viscous: 0.0,
+            dt: 0.0,
+            iterations: 0,
         }
     }
 

@@ -57,10 +57,11 @@ fn small_quickstart() -> LoadedDeck {
             *end_time = Some(30e-6);
             *steps = None;
         }
+        other => panic!("quickstart is expected to be explicit, found {other:?}"),
     }
     ld.deck.output.png = false;
     ld.deck.output.snapshots = 4;
-    ld.deck.output.history_interval = 5;
+    ld.deck.output.history_interval = Some(5);
     ld
 }
 

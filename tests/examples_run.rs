@@ -18,15 +18,19 @@ fn deck(name: &str) -> LoadedDeck {
 /// Runs `ld` for `steps` steps (all of them if `None`), writing no snapshots.
 fn run_steps(mut ld: LoadedDeck, steps: Option<u64>) -> RunSummary {
     if let Some(n) = steps {
-        let SolverDeck::Explicit {
-            steps: s, end_time, ..
-        } = &mut ld.deck.solver;
-        *s = Some(n);
-        *end_time = None;
+        match &mut ld.deck.solver {
+            SolverDeck::Explicit {
+                steps: s, end_time, ..
+            } => {
+                *s = Some(n);
+                *end_time = None;
+            }
+            SolverDeck::QuasiStatic { load_steps, .. } => *load_steps = n,
+        }
     }
     ld.deck.output.snapshots = 0;
     ld.deck.output.png = false;
-    ld.deck.output.history_interval = 0;
+    ld.deck.output.history_interval = Some(0);
     let name = ld.file.file_stem().unwrap().to_string_lossy().to_string();
     let out = std::env::temp_dir().join(format!("peridyn-example-{name}-{}", std::process::id()));
     let summary = run(

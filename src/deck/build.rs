@@ -24,6 +24,7 @@ use crate::material::surface_correction::{
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
+use crate::solver::QuasiStaticSettings;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -110,13 +111,16 @@ pub struct MaterialReport {
     pub note: Option<String>,
 }
 
-/// Solver settings of an explicit run.
-#[derive(Debug, Clone, Copy)]
-pub struct ExplicitSettings {
+/// Solver settings of a run.
+#[derive(Debug, Clone)]
+pub struct SolverSettings {
     pub steps: Option<u64>,
     pub end_time: Option<f64>,
+    /// The time step (explicit) or the load increment in pseudo-time (quasi-static).
     pub dt: Option<f64>,
     pub safety_factor: f64,
+    /// Present for a quasi-static run.
+    pub quasi_static: Option<QuasiStaticSettings>,
 }
 
 /// The deck's random pores, if any, with their record, or an error at `discretization.pores`.
@@ -403,8 +407,9 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
             time: time.clone(),
         });
     }
-    let SolverDeck::Explicit { damping, .. } = &deck.solver;
-    loading.damping = *damping;
+    if let SolverDeck::Explicit { damping, .. } = &deck.solver {
+        loading.damping = *damping;
+    }
     let initial_velocities = deck
         .initial_velocities
         .iter()
@@ -498,6 +503,15 @@ impl Deck {
             Some(name) => &self.materials[name],
             None => &self.material,
         }
+    }
+
+    /// Steps between history rows: the deck's, or 10 for explicit dynamics and 1 (every load
+    /// step) for a quasi-static run.
+    pub fn history_interval(&self) -> u64 {
+        self.output.history_interval.unwrap_or(match self.solver {
+            SolverDeck::Explicit { .. } => 10,
+            SolverDeck::QuasiStatic { .. } => 1,
+        })
     }
 }
 
@@ -1014,18 +1028,44 @@ fn surface_corrected<const D: usize>(
 }
 
 /// The solver settings of a deck.
-pub fn explicit_settings(deck: &Deck) -> ExplicitSettings {
-    let SolverDeck::Explicit {
-        steps,
-        end_time,
-        dt,
-        safety_factor,
-        ..
-    } = &deck.solver;
-    ExplicitSettings {
-        steps: *steps,
-        end_time: *end_time,
-        dt: *dt,
-        safety_factor: *safety_factor,
+pub fn solver_settings(deck: &Deck) -> SolverSettings {
+    match &deck.solver {
+        SolverDeck::Explicit {
+            steps,
+            end_time,
+            dt,
+            safety_factor,
+            ..
+        } => SolverSettings {
+            steps: *steps,
+            end_time: *end_time,
+            dt: *dt,
+            safety_factor: *safety_factor,
+            quasi_static: None,
+        },
+        SolverDeck::QuasiStatic {
+            load_steps,
+            end_time,
+            method: QuasiStaticMethod::Adr,
+            tolerance,
+            max_iterations,
+            mass_factor,
+            max_equilibria,
+            max_broken_bonds,
+            max_splits,
+        } => SolverSettings {
+            steps: Some(*load_steps),
+            end_time: Some(*end_time),
+            dt: Some(end_time / *load_steps as f64),
+            safety_factor: 1.0,
+            quasi_static: Some(QuasiStaticSettings {
+                tolerance: *tolerance,
+                max_iterations: *max_iterations,
+                mass_factor: *mass_factor,
+                max_equilibria: *max_equilibria,
+                max_broken_per_step: *max_broken_bonds,
+                max_splits: *max_splits,
+            }),
+        },
     }
 }

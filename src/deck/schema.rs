@@ -565,6 +565,61 @@ pub enum SolverDeck {
         #[serde(default)]
         damping: f64,
     },
+    /// Quasi-static loading: the load parameter t goes from 0 to `end_time` in `load_steps`
+    /// equal steps (boundary conditions and loads are evaluated at t_k = k·end_time/load_steps);
+    /// each step is relaxed to equilibrium, then bonds break and the body is re-equilibrated
+    /// until none breaks (seed 001 Appendix B).
+    QuasiStatic {
+        load_steps: u64,
+        /// The load parameter at the last step (default 1: ramps of duration 1 reach their full
+        /// value at the end).
+        #[serde(default = "default_one")]
+        end_time: f64,
+        #[serde(default)]
+        method: QuasiStaticMethod,
+        /// Relative residual of an equilibrium: out-of-balance force over the loading forces.
+        #[serde(default = "default_qs_tolerance")]
+        tolerance: f64,
+        /// Iterations allowed per relaxation.
+        #[serde(default = "default_qs_iterations")]
+        max_iterations: u64,
+        /// Multiplies the fictitious mass of adaptive dynamic relaxation (1: the Gershgorin
+        /// bound; larger is slower and safer).
+        #[serde(default = "default_one")]
+        mass_factor: f64,
+        /// Relaxations allowed per load step (break bonds, re-equilibrate).
+        #[serde(default = "default_qs_equilibria")]
+        max_equilibria: u32,
+        /// A load step breaking more bonds than this is undone and split in two (adaptive load
+        /// stepping); absent: never split.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_broken_bonds: Option<u64>,
+        /// How many times a load step may be halved.
+        #[serde(default = "default_qs_splits")]
+        max_splits: u32,
+    },
+}
+
+/// How a quasi-static step finds equilibrium.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QuasiStaticMethod {
+    /// Adaptive dynamic relaxation (Kilic & Madenci 2010).
+    #[default]
+    Adr,
+}
+
+fn default_qs_tolerance() -> f64 {
+    1e-6
+}
+fn default_qs_iterations() -> u64 {
+    200_000
+}
+fn default_qs_equilibria() -> u32 {
+    1000
+}
+fn default_qs_splits() -> u32 {
+    8
 }
 
 fn default_safety() -> f64 {
@@ -575,9 +630,10 @@ fn default_safety() -> f64 {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputDeck {
-    /// Steps between history rows (0: only first and last).
-    #[serde(default = "default_history")]
-    pub history_interval: u64,
+    /// Steps between history rows (0: only first and last); default 10 for explicit
+    /// dynamics, 1 (every load step) for quasi-static runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history_interval: Option<u64>,
     /// Number of field snapshots over the run (VTU, and PNG in 2D), besides the initial one.
     #[serde(default = "default_snapshots")]
     pub snapshots: u64,
@@ -586,9 +642,6 @@ pub struct OutputDeck {
     pub png: bool,
 }
 
-fn default_history() -> u64 {
-    10
-}
 fn default_snapshots() -> u64 {
     10
 }
@@ -599,7 +652,7 @@ fn default_true() -> bool {
 impl Default for OutputDeck {
     fn default() -> Self {
         OutputDeck {
-            history_interval: default_history(),
+            history_interval: None,
             snapshots: default_snapshots(),
             png: true,
         }

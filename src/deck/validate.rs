@@ -3,6 +3,7 @@
 
 use super::schema::*;
 use super::DeckIssue;
+use crate::loading::Kinematic;
 use crate::material::pmb::bond_based_poisson_ratio;
 use crate::material::Dimensionality;
 
@@ -428,6 +429,73 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
                 out.push(DeckIssue::new(
                     "solver.damping",
                     format!("damping (1/s) must be zero or positive, found {damping}"),
+                ));
+            }
+        }
+        SolverDeck::QuasiStatic {
+            load_steps,
+            end_time,
+            tolerance,
+            max_iterations,
+            mass_factor,
+            max_equilibria,
+            max_broken_bonds,
+            ..
+        } => {
+            if *load_steps == 0 {
+                out.push(DeckIssue::new(
+                    "solver.load_steps",
+                    "expected at least 1 load step, found 0",
+                ));
+            }
+            positive(
+                &mut out,
+                "solver.end_time",
+                *end_time,
+                "load parameter at the end",
+            );
+            if !(tolerance.is_finite() && *tolerance > 0.0 && *tolerance < 1.0) {
+                out.push(DeckIssue::new(
+                    "solver.tolerance",
+                    format!(
+                        "the relative residual tolerance must lie in (0, 1), found {tolerance}"
+                    ),
+                ));
+            }
+            if *max_iterations == 0 || *max_equilibria == 0 {
+                out.push(DeckIssue::new(
+                    if *max_iterations == 0 {
+                        "solver.max_iterations"
+                    } else {
+                        "solver.max_equilibria"
+                    },
+                    "expected at least 1",
+                ));
+            }
+            if !(mass_factor.is_finite() && *mass_factor >= 1.0) {
+                out.push(DeckIssue::new(
+                    "solver.mass_factor",
+                    format!("the fictitious mass factor must be at least 1 (the stability bound of dynamic relaxation), found {mass_factor}"),
+                ));
+            }
+            if *max_broken_bonds == Some(0) {
+                out.push(DeckIssue::new(
+                    "solver.max_broken_bonds",
+                    "expected at least 1 bond (or leave it out: never split a load step)",
+                ));
+            }
+            for (k, bc) in deck.boundary_conditions.iter().enumerate() {
+                if bc.kind == Kinematic::Velocity {
+                    out.push(DeckIssue::new(
+                        &format!("boundary_conditions[{k}].kind"),
+                        "a quasi-static run prescribes displacements; a velocity has no meaning without time (use kind = \"displacement\" with a ramp)",
+                    ));
+                }
+            }
+            if !deck.initial_velocities.is_empty() {
+                out.push(DeckIssue::new(
+                    "initial_velocities",
+                    "a quasi-static run has no velocities; remove initial_velocities or use the explicit solver",
                 ));
             }
         }

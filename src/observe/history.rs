@@ -1,7 +1,9 @@
-//! The CSV history: energies, broken bonds and reaction forces of every named node set.
+//! The CSV history: energies, broken bonds, the step (time step or load increment, and
+//! iterations), and the reaction force and mean displacement of every named node set.
 
 use super::csv::CsvHistory;
 use super::observer::{Every, Observer, StepView};
+use crate::math::Vector;
 use std::path::Path;
 
 pub struct History {
@@ -23,6 +25,8 @@ impl History {
             "viscous_dissipation",
             "energy_balance",
             "broken_bonds",
+            "dt",
+            "iterations",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -30,6 +34,9 @@ impl History {
         for (name, _) in set_names {
             for axis in AXES.iter().take(D) {
                 header.push(format!("reaction_{name}_{axis}"));
+            }
+            for axis in AXES.iter().take(D) {
+                header.push(format!("displacement_{name}_{axis}"));
             }
         }
         History {
@@ -60,10 +67,13 @@ impl<const D: usize> Observer<D> for History {
             dv,
             ek + es + dv - w,
             (state.broken / 2) as f64,
+            state.dt,
+            state.iterations as f64,
         ];
         for nodes in &self.sets {
             let r = view.reaction(nodes);
             row.extend(r.iter());
+            row.extend(mean_displacement(&state.u, nodes).iter());
         }
         self.csv.push(row)?;
         if view.last {
@@ -75,4 +85,12 @@ impl<const D: usize> Observer<D> for History {
     fn finish(&mut self) -> std::io::Result<()> {
         self.csv.flush()
     }
+}
+
+/// Mean displacement of a node set (zero for an empty set).
+fn mean_displacement<const D: usize>(u: &[Vector<D>], nodes: &[u32]) -> Vector<D> {
+    let sum = nodes
+        .iter()
+        .fold(Vector::<D>::zeros(), |a, &i| a + u[i as usize]);
+    sum / (nodes.len().max(1) as f64)
 }

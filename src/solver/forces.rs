@@ -644,13 +644,30 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .collect()
     }
 
-    /// Stable time step of Silling & Askari (2005): Δt < sqrt(2ρ_i / Σ_j C_ij w_ij) at every
-    /// node, with C the linearised bond stiffness, averaged over the bond's two halves.
+    /// Stable time step of Silling & Askari (2005): Δt < sqrt(2ρ_i / k_i) at every node, with
+    /// k_i from `node_stiffness`.
     pub fn stable_time_step(&self, body: &Body<D>, bonds: &Bonds) -> f64 {
+        self.node_stiffness(body, bonds)
+            .par_iter()
+            .enumerate()
+            .map(|(i, &k)| {
+                if k > 0.0 {
+                    (2.0 * self.material.density(i) / k).sqrt()
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .reduce(|| f64::INFINITY, f64::min)
+    }
+
+    /// k_i = Σ_j C_ij φ̄ V_j (N/m⁴), the linearised bond stiffness C averaged over the bond's
+    /// two halves and summed over the family (Silling & Askari 2005): the stable time step's
+    /// and the quasi-static solver's fictitious mass's bound on the node's stiffness.
+    pub fn node_stiffness(&self, body: &Body<D>, bonds: &Bonds) -> Vec<f64> {
         (0..body.len())
             .into_par_iter()
             .map(|i| {
-                let k: f64 = bonds
+                bonds
                     .family(i)
                     .map(|b| {
                         let j = bonds.neighbors[b] as usize;
@@ -660,14 +677,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             + self.material.bond_stiffness(j, l) * phi_ji)
                             * body.volumes[j]
                     })
-                    .sum();
-                if k > 0.0 {
-                    (2.0 * self.material.density(i) / k).sqrt()
-                } else {
-                    f64::INFINITY
-                }
+                    .sum()
             })
-            .reduce(|| f64::INFINITY, f64::min)
+            .collect()
     }
 }
 

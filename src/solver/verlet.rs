@@ -27,6 +27,10 @@ pub enum StepError {
         quantity: &'static str,
         value: f64,
     },
+    #[error(
+        "the quasi-static solver did not converge in load step {step} (load time {time:e}): {what}"
+    )]
+    NotConverged { step: u64, time: f64, what: String },
 }
 
 /// Everything a run needs, with public fields (the reference data is not to be changed once
@@ -46,7 +50,7 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     pub counters: Counters,
     /// Constrained (node, component) pairs, and the same as a per-node mask.
     constrained: Vec<(usize, usize)>,
-    constrained_mask: Vec<[bool; 3]>,
+    pub(super) constrained_mask: Vec<[bool; 3]>,
 }
 
 impl<const D: usize, M: Material<D>> Simulation<D, M> {
@@ -204,6 +208,8 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         self.state.dissipated_viscous += dissipated;
         self.state.time = t1;
         self.state.step += 1;
+        self.state.dt = dt;
+        self.state.iterations = 1;
         self.counters.integrate += started.elapsed();
         self.counters.steps += 1;
         self.counters.bonds_broken += broken;

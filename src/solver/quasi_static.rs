@@ -1,0 +1,424 @@
+//! Quasi-static loading: the load is applied in steps; in each step the body is relaxed to
+//! equilibrium by adaptive dynamic relaxation (ADR) with every bond as it was, then the
+//! damage law decides, and the body is re-equilibrated until the decision breaks no bond and
+//! leaves the equilibrium intact (seed 001 §2.10 and Appendix B, Fig. B1).
+//!
+//! ADR after Kilic & Madenci (2010) (seed 001 ref. [39]; Underwood 1983), with the fictitious
+//! time step Δt = 1:
+//!
+//! - fictitious diagonal mass λ_i ≥ ¼ Δt² Σ_j |K_ij| (Gershgorin bound of the stiffness row):
+//!   λ_i = `mass_factor` · k_i / 2, with k_i = Σ_j C_ij φ̄ V_j the node stiffness of the
+//!   stable-time-step estimate (`ForceEngine::node_stiffness`), whose row sum bounds
+//!   Σ_j |K_ij| by 2 k_i;
+//! - v^{n+½} = ((2 − c_n) v^{n−½} + 2 F^n/λ) / (2 + c_n), u^{n+1} = u^n + v^{n+½},
+//!   v^{½} = F^0 / (2λ);
+//! - c_n = 2 sqrt(uᵀ K^n u / uᵀ u) with the local diagonal stiffness
+//!   K^n_kk = −(F^n_k/λ − F^{n−1}_k/λ) / v^{n−½}_k, and c_n = 0 when the quotient is not
+//!   positive (softening bonds); c_n ≤ 2 (the critically damped update of the stiffest mode).
+//!
+//! F is the out-of-balance force density f + b on the free degrees of freedom; constrained
+//! ones keep their prescribed values. Equilibrium: the relative residual
+//! ‖V (f + b)‖ over free components ÷ (‖V (f + b)‖ over constrained components + ‖V b‖ over
+//! free ones, or the largest such loading of an earlier equilibrium) — the out-of-balance
+//! force against the forces that load the body — at most `tolerance`.
+//!
+//! While the body relaxes no bond may break or soften: every node is protected (the no-fail
+//! mechanism), so the damage state is the one of the last decision (a secant iteration for
+//! softening laws, exact for critical stretch). Work-based laws still record the work along
+//! the relaxation path, which for an elastic bond is the energy difference between its end
+//! states.
+
+use super::{Simulation, StepError};
+use crate::material::Material;
+use crate::math::Vector;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Parameters of the quasi-static solver (deck `[solver] type = "quasi_static"`).
+#[derive(Debug, Clone)]
+pub struct QuasiStaticSettings {
+    /// Relative residual at which a relaxation has converged.
+    pub tolerance: f64,
+    /// ADR iterations allowed per relaxation.
+    pub max_iterations: u64,
+    /// Multiplies the fictitious mass bound (≥ 1 is stable by Gershgorin's theorem).
+    pub mass_factor: f64,
+    /// Relaxations (break, re-equilibrate) allowed per load step.
+    pub max_equilibria: u32,
+    /// A load step that breaks more bond halves than this is undone and split in two.
+    pub max_broken_per_step: Option<u64>,
+    /// How many times a load step may be halved.
+    pub max_splits: u32,
+}
+
+impl Default for QuasiStaticSettings {
+    fn default() -> Self {
+        QuasiStaticSettings {
+            tolerance: 1e-6,
+            max_iterations: 200_000,
+            mass_factor: 1.0,
+            max_equilibria: 1000,
+            max_broken_per_step: None,
+            max_splits: 8,
+        }
+    }
+}
+
+/// What one committed (sub)step took.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LoadStepReport {
+    /// ADR iterations, over every relaxation of the step.
+    pub iterations: u64,
+    /// Relaxations: 1 when the first decision broke nothing.
+    pub equilibria: u32,
+    /// Bond halves broken in the step.
+    pub broken: u64,
+    /// Relative residual at the end.
+    pub residual: f64,
+}
+
+/// The quasi-static driver of one simulation: the fictitious masses and the ADR velocities.
+pub struct QuasiStatic<const D: usize> {
+    pub settings: QuasiStaticSettings,
+    /// λ_i per node.
+    mass: Vec<f64>,
+    velocity: Vec<Vector<D>>,
+    /// F^{n−1}/λ of the previous iteration.
+    previous_acceleration: Vec<Vector<D>>,
+    /// The load increment in use (pseudo-time), halved when a step breaks too much.
+    increment: f64,
+    /// The nominal increment.
+    nominal: f64,
+    /// Every node protected (the relaxation's no-fail flags).
+    frozen: Vec<bool>,
+    /// Squared norm of the largest loading forces of a committed equilibrium.
+    largest_load: f64,
+    /// Total ADR iterations.
+    pub iterations: u64,
+}
+
+impl<const D: usize> QuasiStatic<D> {
+    /// Sets up the masses for `sim`; `increment` is the nominal load step (pseudo-time).
+    pub fn new<M: Material<D>>(
+        sim: &Simulation<D, M>,
+        settings: QuasiStaticSettings,
+        increment: f64,
+    ) -> Self {
+        let n = sim.body.len();
+        let mass = sim
+            .engine
+            .node_stiffness(&sim.body, &sim.bonds)
+            .into_iter()
+            .map(|k| settings.mass_factor * 0.5 * k)
+            .collect();
+        QuasiStatic {
+            settings,
+            mass,
+            velocity: vec![Vector::zeros(); n],
+            previous_acceleration: vec![Vector::zeros(); n],
+            increment,
+            nominal: increment,
+            frozen: vec![true; n],
+            largest_load: 0.0,
+            iterations: 0,
+        }
+    }
+
+    /// Commits one load step ending at `target` (pseudo-time), or a part of it when the step
+    /// breaks more than `max_broken_per_step` bond halves (the state is restored exactly and
+    /// the increment halved, up to `max_splits` times). Returns what the committed step took.
+    pub fn advance<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        target: f64,
+    ) -> Result<LoadStepReport, StepError> {
+        let limit = self.settings.max_broken_per_step;
+        let smallest = self.nominal / f64::powi(2.0, self.settings.max_splits as i32);
+        loop {
+            // A remainder below a millionth of the nominal increment is rounding: go to target.
+            let t1 = sim.state.time + self.increment;
+            let t1 = if t1 >= target - 1e-6 * self.nominal {
+                target
+            } else {
+                t1
+            };
+            // A step that may still be halved gives up as soon as it breaks too much.
+            let abort_above = limit.filter(|_| self.increment > smallest * 1.5);
+            let saved = abort_above.map(|_| sim.state.clone());
+            let Some(report) = self.load_step(sim, t1, abort_above)? else {
+                sim.state = saved.expect("saved when a step may give up");
+                self.increment *= 0.5;
+                continue;
+            };
+            if report.broken == 0 {
+                // A quiet step lets the increment grow back to the nominal one.
+                self.increment = (self.increment * 2.0).min(self.nominal);
+            }
+            sim.counters.steps += 1;
+            sim.counters.bonds_broken += report.broken;
+            return Ok(report);
+        }
+    }
+
+    /// Applies the load at t1, relaxes, lets the damage law decide and re-relaxes until it
+    /// breaks nothing; books the external work and commits the step. `None` (the state left
+    /// half-way) when more than `abort_above` bond halves broke.
+    fn load_step<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        t1: f64,
+        abort_above: Option<u64>,
+    ) -> Result<Option<LoadStepReport>, StepError> {
+        let started = Instant::now();
+        let (t0, u0, load0) = (
+            sim.state.time,
+            sim.state.u.clone(),
+            self.applied_forces(sim),
+        );
+        sim.loading
+            .apply_displacements(&sim.body, &mut sim.state, t1);
+        sim.state.time = t1;
+        let mut report = LoadStepReport::default();
+        // Forces at the new boundary values, nothing deciding.
+        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        let result = (|| {
+            sim.refresh_forces()?;
+            loop {
+                report.equilibria += 1;
+                report.iterations += self.relax(sim)?;
+                // The decision, with the user's no-fail sets.
+                std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+                let broken = sim.refresh_forces();
+                std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+                let broken = broken?;
+                report.broken += broken;
+                if abort_above.is_some_and(|n| report.broken > n) {
+                    return Ok(false);
+                }
+                report.residual = self.residual(sim).0;
+                if broken == 0 && report.residual <= self.settings.tolerance {
+                    return Ok(true);
+                }
+                if report.equilibria >= self.settings.max_equilibria {
+                    return Err(StepError::NotConverged {
+                        step: sim.state.step + 1,
+                        time: t1,
+                        what: format!("bonds still breaking after {} re-equilibrations (max_equilibria) in this load step", report.equilibria),
+                    });
+                }
+            }
+        })();
+        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        self.iterations += report.iterations;
+        if !result? {
+            return Ok(None);
+        }
+        self.largest_load = self.largest_load.max(self.residual(sim).2);
+        sim.state.external_work += self.step_work(sim, &u0, &load0);
+        sim.state.dt = t1 - t0;
+        sim.state.iterations = report.iterations;
+        sim.state.step += 1;
+        sim.counters.force += started.elapsed();
+        Ok(Some(report))
+    }
+
+    /// Relaxes the body to equilibrium with the damage state frozen; returns the iterations.
+    fn relax<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
+        let tol = self.settings.tolerance;
+        let (mut residual, ..) = self.residual(sim);
+        let start_residual = residual;
+        let mask = sim.constrained_mask.clone();
+        let mut n = 0u64;
+        while residual > tol {
+            if n >= self.settings.max_iterations {
+                let (_, node, _) = self.residual(sim);
+                return Err(self.not_converged(sim, n, residual, node));
+            }
+            // Out-of-balance acceleration F/λ on the free components.
+            let s = &sim.state;
+            let accel: Vec<Vector<D>> = (0..s.u.len())
+                .into_par_iter()
+                .with_min_len(4096)
+                .map(|i| {
+                    Vector::<D>::from_fn(|k, _| {
+                        if mask[i][k] || self.mass[i] <= 0.0 {
+                            0.0
+                        } else {
+                            (s.force[i][k] + s.body_force[i][k]) / self.mass[i]
+                        }
+                    })
+                })
+                .collect();
+            let c = if n == 0 {
+                0.0
+            } else {
+                self.damping(&s.u, &accel)
+            };
+            let first = n == 0;
+            let (velocity, previous) = (&mut self.velocity, &mut self.previous_acceleration);
+            let positions = &sim.body.positions;
+            let s = &mut sim.state;
+            (&mut s.u, &mut s.current, velocity, previous)
+                .into_par_iter()
+                .zip(accel.par_iter())
+                .zip(positions.par_iter())
+                .with_min_len(4096)
+                .for_each(|(((u, y, v, prev), a), x)| {
+                    *v = if first {
+                        a * 0.5
+                    } else {
+                        (*v * (2.0 - c) + a * 2.0) / (2.0 + c)
+                    };
+                    *prev = *a;
+                    *u += *v;
+                    *y = x + *u;
+                });
+            sim.refresh_forces()?;
+            n += 1;
+            residual = self.residual(sim).0;
+            if !residual.is_finite() || residual > 1e6 * start_residual.max(tol) {
+                sim.check_finite()?;
+                let (_, node, _) = self.residual(sim);
+                return Err(self.not_converged(sim, n, residual, node));
+            }
+        }
+        for v in self.velocity.iter_mut() {
+            *v = Vector::zeros();
+        }
+        Ok(n)
+    }
+
+    /// c_n = 2 sqrt(uᵀKu / uᵀu) from the local diagonal stiffness (Kilic & Madenci 2010),
+    /// 0 when not positive, at most 2; sums in a fixed order.
+    fn damping(&self, u: &[Vector<D>], accel: &[Vector<D>]) -> f64 {
+        let terms: Vec<(f64, f64)> = u
+            .par_chunks(4096)
+            .zip(accel.par_chunks(4096))
+            .zip(self.velocity.par_chunks(4096))
+            .zip(self.previous_acceleration.par_chunks(4096))
+            .map(|(((u, a), v), p)| {
+                let (mut num, mut den) = (0.0, 0.0);
+                for i in 0..u.len() {
+                    for k in 0..D {
+                        if v[i][k] != 0.0 {
+                            let stiffness = -(a[i][k] - p[i][k]) / v[i][k];
+                            num += u[i][k] * stiffness * u[i][k];
+                            den += u[i][k] * u[i][k];
+                        }
+                    }
+                }
+                (num, den)
+            })
+            .collect();
+        let (num, den) = terms
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (n, d)| (a + n, b + d));
+        if num > 0.0 && den > 0.0 {
+            (2.0 * (num / den).sqrt()).min(2.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The relative residual, the node with the largest out-of-balance force, and the squared
+    /// norm of the loading forces it is measured against.
+    pub fn residual<M: Material<D>>(&self, sim: &Simulation<D, M>) -> (f64, usize, f64) {
+        let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
+        let chunk = 4096;
+        // Fixed chunks summed in order: the same result for any thread count.
+        let n = s.u.len();
+        let parts: Vec<(f64, f64, f64, usize)> = (0..n.div_ceil(chunk))
+            .into_par_iter()
+            .map(|c| {
+                let (mut free, mut held, mut worst, mut worst_node) = (0.0, 0.0, -1.0, 0);
+                for i in c * chunk..((c + 1) * chunk).min(n) {
+                    let mut own = 0.0;
+                    for (k, &held_k) in mask[i].iter().take(D).enumerate() {
+                        let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
+                        if held_k {
+                            held += f * f;
+                        } else {
+                            own += f * f;
+                            let b = vol[i] * s.body_force[i][k];
+                            held += b * b;
+                        }
+                    }
+                    free += own;
+                    if own > worst {
+                        (worst, worst_node) = (own, i);
+                    }
+                }
+                (free, held, worst, worst_node)
+            })
+            .collect();
+        let (mut free, mut held, mut worst, mut node) = (0.0, 0.0, -1.0, 0);
+        for (f, h, w, i) in parts {
+            free += f;
+            held += h;
+            if w > worst {
+                (worst, node) = (w, i);
+            }
+        }
+        // Against the largest loading of any equilibrium so far: once a crack has cut the
+        // body and the reactions vanish, equilibrium is still judged at the scale of the loads
+        // it carried.
+        let held = held.max(self.largest_load);
+        let relative = if held > 0.0 {
+            (free / held).sqrt()
+        } else if free == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        (relative, node, held)
+    }
+
+    fn not_converged<M: Material<D>>(
+        &self,
+        sim: &Simulation<D, M>,
+        iterations: u64,
+        residual: f64,
+        node: usize,
+    ) -> StepError {
+        StepError::NotConverged {
+            step: sim.state.step + 1,
+            time: sim.state.time,
+            what: format!(
+                "relative residual {residual:.3e} after {iterations} ADR iterations (tolerance {:.1e}, max_iterations {}); the largest out-of-balance force is at node {node}, x = {:?}; raise max_iterations or mass_factor, or use smaller load steps",
+                self.settings.tolerance,
+                self.settings.max_iterations,
+                sim.body.positions[node].iter().collect::<Vec<_>>()
+            ),
+        }
+    }
+
+    /// The external forces at the constrained components (−V (f + b), what holds them) and
+    /// the body forces V b on the free ones, per node.
+    fn applied_forces<M: Material<D>>(&self, sim: &Simulation<D, M>) -> Vec<Vector<D>> {
+        let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
+        (0..s.u.len())
+            .map(|i| {
+                Vector::<D>::from_fn(|k, _| {
+                    if mask[i][k] {
+                        -vol[i] * (s.force[i][k] + s.body_force[i][k])
+                    } else {
+                        vol[i] * s.body_force[i][k]
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// Work of the external forces over the step between two equilibria (trapezoidal rule).
+    fn step_work<M: Material<D>>(
+        &self,
+        sim: &Simulation<D, M>,
+        u0: &[Vector<D>],
+        load0: &[Vector<D>],
+    ) -> f64 {
+        let load1 = self.applied_forces(sim);
+        (0..u0.len())
+            .map(|i| 0.5 * (load0[i] + load1[i]).dot(&(sim.state.u[i] - u0[i])))
+            .sum()
+    }
+}

@@ -1,0 +1,341 @@
+//! The quasi-static solver (adaptive dynamic relaxation in load steps, seed 001 Appendix B):
+//! equilibrium against Hooke's law and against a damped explicit run, the energy balance,
+//! splitting of load steps that break too many bonds, and a clear error when it cannot
+//! converge.
+
+mod common;
+
+use peridyn::bonds::PartialVolume;
+use peridyn::damage::Damage;
+use peridyn::deck::build::{build_constitution, build_model, solver_settings, MaterialChoice};
+use peridyn::deck::LoadedDeck;
+use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
+use peridyn::material::correspondence::ZeroEnergyControl;
+use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Pmb};
+use peridyn::math::Vector;
+use peridyn::run::{drive, drive_quasi_static, prepare, RunError};
+use peridyn::solver::{QuasiStatic, QuasiStaticSettings, Simulation};
+use std::path::Path;
+
+/// A 2D plane-stress PMB plate 20 mm × 40 mm (Δx = 0.5 mm, δ = 3Δx) between two grip layers
+/// of three rows; the top grip is pulled up by `pull` (m) over the run, the bottom one held
+/// in y; the pull ramps up over `ramp` (load time or seconds); `extra` goes into the
+/// discretization table.
+fn plate_deck(pull: f64, ramp: f64, solver: &str, extra: &str) -> LoadedDeck {
+    let text = format!(
+        r#"
+version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [0.02, 0.04] }}
+spacing = 0.5e-3
+horizon_ratio = 3.0
+{extra}
+
+[material]
+type = "pmb"
+density = 1000.0
+youngs_modulus = 1e9
+critical_stretch = 1.0
+
+[[node_sets]]
+name = "top"
+region = {{ type = "rectangle", min = [-1.0, 0.0385], max = [1.0, 1.0] }}
+[[node_sets]]
+name = "bottom"
+region = {{ type = "rectangle", min = [-1.0, -1.0], max = [1.0, 0.0015] }}
+
+[[boundary_conditions]]
+set = "bottom"
+kind = "displacement"
+component = "y"
+value = 0.0
+[[boundary_conditions]]
+set = "top"
+kind = "displacement"
+component = "y"
+value = {pull:e}
+time = {{ type = "ramp", duration = {ramp:e} }}
+
+{solver}
+"#
+    );
+    LoadedDeck::from_str(&text, Path::new("plate.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Builds a PMB deck and runs it to the end (no observers).
+fn solve(ld: &LoadedDeck) -> Result<Simulation<2, Pmb>, RunError> {
+    let model = build_model::<2>(ld)?;
+    let c = build_constitution(ld, &model)?;
+    let (material, rest) = c.split();
+    let MaterialChoice::Pmb(pmb) = material else {
+        panic!("a PMB deck")
+    };
+    let (mut sim, report) = prepare(ld, model, pmb, rest)?;
+    match solver_settings(&ld.deck).quasi_static {
+        Some(qs) => drive_quasi_static(&mut sim, qs, report.steps, &mut [])?,
+        None => drive(&mut sim, report.steps, &mut [])?,
+    }
+    Ok(sim)
+}
+
+/// Patch test of the relaxation: a square plate (40 × 40 cells of 0.5 mm, δ = 3Δx) whose
+/// outer layer of width 2δ is displaced as the homogeneous field u = ε x (fictitious nodes,
+/// seed 001 §2.9); every free node and every node it is bonded to has a full family, so the
+/// exact discrete equilibrium is that field. Returns the largest error of the free nodes
+/// relative to the largest displacement.
+fn patch_error<M: Material<2>>(material: M, eps: [[f64; 2]; 2]) -> f64 {
+    let (dx, m) = (0.5e-3, 3.0);
+    let (body, bonds) = common::lattice_body::<2>(40, dx, m, PartialVolume::Hhb);
+    let (side, layer) = (40.0 * dx, 2.0 * m * dx);
+    let field = |x: &Vector<2>| {
+        Vector::<2>::new(
+            eps[0][0] * x[0] + eps[0][1] * x[1],
+            eps[1][0] * x[0] + eps[1][1] * x[1],
+        )
+    };
+    let in_layer = |x: &Vector<2>| x.iter().any(|&c| c < layer || c > side - layer);
+    let mut loading = Loading::<2>::default();
+    for i in 0..body.len() {
+        let x = body.positions[i];
+        if in_layer(&x) {
+            for k in 0..2 {
+                loading.conditions.push(BoundaryCondition {
+                    set: format!("node {i}"),
+                    nodes: vec![i as u32],
+                    kind: Kinematic::Displacement,
+                    component: k,
+                    value: field(&x)[k],
+                    time: TimeFunction::Ramp { duration: 1.0 },
+                });
+            }
+        }
+    }
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        material,
+        Damage::none(),
+        PartialVolume::Hhb,
+        loading,
+        Some(1.0),
+        1.0,
+    )
+    .unwrap();
+    let settings = QuasiStaticSettings {
+        tolerance: 1e-10,
+        ..Default::default()
+    };
+    let mut solver = QuasiStatic::new(&sim, settings, 1.0);
+    let report = solver.advance(&mut sim, 1.0).unwrap();
+    let scale = (0..sim.body.len())
+        .map(|i| field(&sim.body.positions[i]).norm())
+        .fold(0.0, f64::max);
+    let error = (0..sim.body.len())
+        .filter(|&i| !in_layer(&sim.body.positions[i]))
+        .map(|i| (sim.state.u[i] - field(&sim.body.positions[i])).norm())
+        .fold(0.0, f64::max);
+    println!(
+        "{} iterations, residual {:.2e}: largest error {:.3e} of the largest displacement",
+        report.iterations,
+        report.residual,
+        error / scale
+    );
+    error / scale
+}
+
+#[test]
+fn relaxation_reproduces_a_homogeneous_deformation_exactly() {
+    let (e, h) = (1e9, 1.5e-3);
+    let plane = Dimensionality::PlaneStress;
+    // Uniaxial stress along y (ν = 1/3 for PMB), a pure shear and a biaxial stretch.
+    let uniaxial = [[-1e-4 / 3.0, 0.0], [0.0, 1e-4]];
+    let shear = [[0.0, 1e-4], [1e-4, 0.0]];
+    let biaxial = [[2e-4, 0.0], [0.0, 1e-4]];
+    for eps in [uniaxial, shear, biaxial] {
+        let profile = MicromodulusProfile::Constant;
+        assert!(patch_error(common::pmb(plane, e, h, profile), eps) < 1e-6);
+        assert!(patch_error(common::lps(plane, e, 0.3, h), eps) < 1e-6);
+    }
+    let control = ZeroEnergyControl::Wan { coefficient: 1.0 };
+    assert!(patch_error(common::correspondence(plane, e, 0.3, h, control), biaxial) < 1e-6);
+}
+
+#[test]
+fn relaxation_agrees_with_the_long_time_limit_of_damped_dynamics() {
+    let pull = 4e-6;
+    let quasi = solve(&plate_deck(
+        pull,
+        1.0,
+        "[solver]\ntype = \"quasi_static\"\nload_steps = 1\ntolerance = 1e-9",
+        "",
+    ))
+    .unwrap();
+    // The same plate, loaded over 50 µs and held, with viscous damping near the lowest mode's
+    // critical value, run to rest.
+    let explicit = solve(&plate_deck(
+        pull,
+        50e-6,
+        "[solver]\ntype = \"explicit\"\nend_time = 1.5e-3\ndamping = 3e4",
+        "",
+    ))
+    .unwrap();
+    let scale = pull;
+    let top = explicit.body.node_set("top").unwrap();
+    assert!((explicit.state.u[top[0] as usize][1] - pull).abs() < 1e-12 * pull);
+    let worst = (0..quasi.body.len())
+        .map(|i| (quasi.state.u[i] - explicit.state.u[i]).norm())
+        .fold(0.0, f64::max);
+    println!(
+        "largest difference {worst:.3e} m ({:.3} % of the pull)",
+        100.0 * worst / scale
+    );
+    assert!(worst < 0.01 * scale);
+    // Between two equilibria the external work is the strain energy: no kinetic energy, no
+    // dissipation. The trapezoidal work of one step is exact for a linear response; the
+    // model's geometric nonlinearity at a strain of 1e-4 leaves ~1e-5.
+    let (w, es) = (quasi.state.external_work, quasi.strain_energy());
+    println!("external work {w:.6e} J, strain energy {es:.6e} J");
+    assert!(es > 0.0 && (w - es).abs() < 1e-4 * es);
+    assert_eq!(quasi.kinetic_energy(), 0.0);
+}
+
+#[test]
+fn a_relaxation_that_cannot_converge_names_the_step_and_the_node() {
+    let ld = plate_deck(
+        4e-6,
+        1.0,
+        "[solver]\ntype = \"quasi_static\"\nload_steps = 3\nmax_iterations = 5",
+        "",
+    );
+    let err = solve(&ld)
+        .err()
+        .expect("5 iterations are not enough")
+        .to_string();
+    println!("{err}");
+    assert!(err.contains("did not converge in load step 1"), "{err}");
+    assert!(
+        err.contains("after 5 ADR iterations") && err.contains("node"),
+        "{err}"
+    );
+}
+
+/// A notched 10 mm × 5 mm PMB plate (Δx = 0.25 mm, δ = 3Δx, s0 = 1e-3) pulled apart by its
+/// grip layers over `load_steps`, splitting a step that breaks more than 40 bonds.
+fn notched_deck(load_steps: u64) -> LoadedDeck {
+    let text = format!(
+        r#"
+version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+no_fail = ["top", "bottom"]
+
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [0.01, 0.005] }}
+spacing = 0.25e-3
+horizon_ratio = 3.0
+
+[material]
+type = "pmb"
+density = 1000.0
+youngs_modulus = 1e9
+critical_stretch = 1e-3
+
+[[node_sets]]
+name = "top"
+region = {{ type = "rectangle", min = [-1.0, 0.00425], max = [1.0, 1.0] }}
+[[node_sets]]
+name = "bottom"
+region = {{ type = "rectangle", min = [-1.0, -1.0], max = [1.0, 0.00075] }}
+
+[[precracks]]
+type = "segment"
+start = [-0.001, 0.0025]
+end = [0.003, 0.0025]
+
+[[boundary_conditions]]
+set = "bottom"
+kind = "displacement"
+component = "y"
+value = 0.0
+[[boundary_conditions]]
+set = "top"
+kind = "displacement"
+component = "y"
+value = 1e-5
+time = {{ type = "ramp", duration = 1.0 }}
+
+[solver]
+type = "quasi_static"
+load_steps = {load_steps}
+max_broken_bonds = 40
+max_splits = 6
+"#
+    );
+    LoadedDeck::from_str(&text, Path::new("notched.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn split_load_steps_trace_the_fracture_and_fix_the_peak_load() {
+    let mut peaks = Vec::new();
+    for load_steps in [10, 40] {
+        let ld = notched_deck(load_steps);
+        let model = build_model::<2>(&ld).unwrap();
+        let c = build_constitution(&ld, &model).unwrap();
+        let (material, rest) = c.split();
+        let MaterialChoice::Pmb(pmb) = material else {
+            panic!("a PMB deck")
+        };
+        let (mut sim, _) = prepare(&ld, model, pmb, rest).unwrap();
+        let settings = solver_settings(&ld.deck).quasi_static.unwrap();
+        let nominal = 1.0 / load_steps as f64;
+        let mut solver = QuasiStatic::new(&sim, settings, nominal);
+        let top = sim.body.node_set("top").unwrap();
+        let (mut peak, mut committed, mut split) = (0.0f64, 0, 0);
+        for k in 1..=load_steps {
+            let target = k as f64 * nominal;
+            while sim.state.time < target {
+                let broken_before = sim.state.broken;
+                let report = solver.advance(&mut sim, target).unwrap();
+                committed += 1;
+                assert_eq!(sim.state.broken - broken_before, report.broken);
+                // A step broke at most 40 bond halves, or was already halved 6 times.
+                assert!(
+                    report.broken <= 40 || sim.state.dt <= nominal / 64.0 * 1.000001,
+                    "{} halves broken in a step of {}",
+                    report.broken,
+                    sim.state.dt
+                );
+                if sim.state.dt < nominal * 0.99 {
+                    split += 1;
+                }
+                peak = peak.max(sim.reaction(&top)[1]);
+            }
+        }
+        let final_load = sim.reaction(&top)[1];
+        println!(
+            "{load_steps} load steps: {committed} committed ({split} split), peak {peak:.4} N, final {final_load:.4} N, {} bonds broken, energy balance {:.3e} J of {:.3e} J work",
+            sim.state.broken / 2,
+            sim.strain_energy() - sim.state.external_work,
+            sim.state.external_work
+        );
+        assert!(split > 0, "the crack forces split steps");
+        // The plate is cut through: the load has dropped to nothing.
+        assert!(final_load < 0.02 * peak);
+        // The crack dissipated energy: strain energy below the work done.
+        assert!(sim.strain_energy() < 0.5 * sim.state.external_work);
+        peaks.push(peak);
+    }
+    let change = (peaks[0] - peaks[1]).abs() / peaks[1];
+    println!(
+        "peak load change between 10 and 40 load steps: {:.2} %",
+        100.0 * change
+    );
+    assert!(change < 0.05);
+}
