@@ -14,7 +14,9 @@ use crate::observe::progress::Progress;
 use crate::observe::snapshots::Snapshots;
 use crate::observe::{Observer, StepView};
 use crate::solver::Fields;
-use crate::solver::{QuasiStatic, QuasiStaticSettings, Simulation, StepError};
+use crate::solver::{
+    AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation, StepError,
+};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -470,9 +472,14 @@ fn run_model<const D: usize, M: Material<D>>(
     ];
 
     let started = Instant::now();
-    let result = match solver_settings(deck).quasi_static {
-        None => drive(&mut sim, report.steps, &mut observers),
-        Some(qs) => drive_quasi_static(&mut sim, qs, report.steps, &mut observers),
+    let settings = solver_settings(deck);
+    let result = match (settings.quasi_static, settings.adaptive) {
+        (Some(qs), _) => drive_quasi_static(&mut sim, qs, report.steps, &mut observers),
+        (None, Some(a)) => {
+            let adaptive = a.settings(sim.dt);
+            drive_adaptive(&mut sim, adaptive, report.end_time, &mut observers)
+        }
+        (None, None) => drive(&mut sim, report.steps, &mut observers),
     };
     for o in observers.iter_mut() {
         o.finish()?;
@@ -515,6 +522,32 @@ pub fn drive<const D: usize, M: Material<D>>(
             sim.check_finite()?;
         }
         offer(sim, observers, k == steps)?;
+    }
+    Ok(())
+}
+
+/// The explicit loop with an adaptive time step: committed steps until `end_time` (the last
+/// one shortened to land on it), each offered to observers; rejected attempts are not seen.
+pub fn drive_adaptive<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    settings: AdaptiveDtSettings,
+    end_time: f64,
+    observers: &mut [Box<dyn Observer<D>>],
+) -> Result<(), RunError> {
+    let mut controller = AdaptiveDt::new(settings);
+    // Times closer than this to the end are the end (rounding of accumulated steps).
+    let slack = 1e-9 * sim.dt;
+    offer(sim, observers, end_time <= slack)?;
+    let mut k = 0u64;
+    while end_time - sim.state.time > slack {
+        sim.dt = sim.dt.min(end_time - sim.state.time);
+        controller.step(sim)?;
+        k += 1;
+        let last = end_time - sim.state.time <= slack;
+        if k.is_multiple_of(100) || last {
+            sim.check_finite()?;
+        }
+        offer(sim, observers, last)?;
     }
     Ok(())
 }

@@ -24,7 +24,7 @@ use crate::material::surface_correction::{
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
-use crate::solver::QuasiStaticSettings;
+use crate::solver::{AdaptiveDtSettings, QuasiStaticSettings};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -121,6 +121,23 @@ pub struct SolverSettings {
     pub safety_factor: f64,
     /// Present for a quasi-static run.
     pub quasi_static: Option<QuasiStaticSettings>,
+    /// Present for an explicit run with an adaptive time step.
+    pub adaptive: Option<AdaptiveDtDeck>,
+}
+
+impl AdaptiveDtDeck {
+    /// The controller's settings for an initial time step `dt`.
+    pub fn settings(&self, dt: f64) -> AdaptiveDtSettings {
+        AdaptiveDtSettings {
+            max_broken_per_node: self.max_broken_per_node,
+            stable_broken_per_node: self.stable_broken_per_node,
+            stable_steps: self.stable_steps,
+            reduce: self.reduce,
+            raise: self.raise,
+            min_dt: self.min_dt.unwrap_or(dt / 5.0),
+            max_dt: self.max_dt.unwrap_or(dt),
+        }
+    }
 }
 
 /// The deck's random pores, if any, with their record, or an error at `discretization.pores`.
@@ -1035,6 +1052,7 @@ pub fn solver_settings(deck: &Deck) -> SolverSettings {
             end_time,
             dt,
             safety_factor,
+            adaptive,
             ..
         } => SolverSettings {
             steps: *steps,
@@ -1042,6 +1060,7 @@ pub fn solver_settings(deck: &Deck) -> SolverSettings {
             dt: *dt,
             safety_factor: *safety_factor,
             quasi_static: None,
+            adaptive: adaptive.clone(),
         },
         SolverDeck::QuasiStatic {
             load_steps,
@@ -1066,6 +1085,7 @@ pub fn solver_settings(deck: &Deck) -> SolverSettings {
                 max_broken_per_step: *max_broken_bonds,
                 max_splits: *max_splits,
             }),
+            adaptive: None,
         },
     }
 }

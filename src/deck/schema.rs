@@ -564,6 +564,9 @@ pub enum SolverDeck {
         /// Viscous damping coefficient η (1/s).
         #[serde(default)]
         damping: f64,
+        /// Adaptive time step (seed 004 §5); absent: a fixed dt.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        adaptive: Option<AdaptiveDtDeck>,
     },
     /// Quasi-static loading: the load parameter t goes from 0 to `end_time` in `load_steps`
     /// equal steps (boundary conditions and loads are evaluated at t_k = k·end_time/load_steps);
@@ -598,6 +601,50 @@ pub enum SolverDeck {
         #[serde(default = "default_qs_splits")]
         max_splits: u32,
     },
+}
+
+/// `[solver.adaptive]`: the adaptive explicit time step of seed 004 §5 (defaults of the
+/// authors' Peridigm code).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveDtDeck {
+    /// N_b^m: a node losing more bonds than this in a step rejects the step.
+    #[serde(default = "default_max_broken_per_node")]
+    pub max_broken_per_node: u32,
+    /// N_b^s: a step in which every node loses at most this many is quiet.
+    #[serde(default = "default_stable_broken_per_node")]
+    pub stable_broken_per_node: u32,
+    /// step_d: steps since the last change before dt may grow.
+    #[serde(default = "default_stable_steps")]
+    pub stable_steps: u64,
+    /// t_reduce.
+    #[serde(default = "default_reduce")]
+    pub reduce: f64,
+    /// t_raise.
+    #[serde(default = "default_raise")]
+    pub raise: f64,
+    /// t_min (s); default the initial dt / 5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_dt: Option<f64>,
+    /// t_max (s); default the initial dt (never above the stable time step).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_dt: Option<f64>,
+}
+
+fn default_max_broken_per_node() -> u32 {
+    4
+}
+fn default_stable_broken_per_node() -> u32 {
+    1
+}
+fn default_stable_steps() -> u64 {
+    4
+}
+fn default_reduce() -> f64 {
+    0.5
+}
+fn default_raise() -> f64 {
+    1.2
 }
 
 /// How a quasi-static step finds equilibrium.

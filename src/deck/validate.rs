@@ -399,7 +399,11 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
             dt,
             safety_factor,
             damping,
+            adaptive,
         } => {
+            if let Some(a) = adaptive {
+                validate_adaptive(&mut out, a);
+            }
             match (steps, end_time) {
                 (Some(_), Some(_)) => out.push(DeckIssue::new(
                     "solver.end_time",
@@ -683,5 +687,50 @@ fn vector(out: &mut Vec<DeckIssue>, path: &str, v: &[f64], d: usize) {
         ));
     } else if v.iter().any(|x| !x.is_finite()) {
         out.push(DeckIssue::new(path, "expected finite numbers"));
+    }
+}
+
+/// `[solver.adaptive]`.
+fn validate_adaptive(out: &mut Vec<DeckIssue>, a: &AdaptiveDtDeck) {
+    let p = "solver.adaptive";
+    if a.max_broken_per_node == 0 {
+        out.push(DeckIssue::new(
+            &format!("{p}.max_broken_per_node"),
+            "expected at least 1 bond per node and step (0 would reject every step that breaks a bond)",
+        ));
+    }
+    if a.stable_broken_per_node > a.max_broken_per_node {
+        out.push(DeckIssue::new(
+            &format!("{p}.stable_broken_per_node"),
+            format!(
+                "must not exceed max_broken_per_node ({}), found {}",
+                a.max_broken_per_node, a.stable_broken_per_node
+            ),
+        ));
+    }
+    if !(a.reduce.is_finite() && a.reduce > 0.0 && a.reduce < 1.0) {
+        out.push(DeckIssue::new(
+            &format!("{p}.reduce"),
+            format!("the reduce factor must lie in (0, 1), found {}", a.reduce),
+        ));
+    }
+    if !(a.raise.is_finite() && a.raise > 1.0) {
+        out.push(DeckIssue::new(
+            &format!("{p}.raise"),
+            format!("the raise factor must be above 1, found {}", a.raise),
+        ));
+    }
+    for (key, v) in [("min_dt", a.min_dt), ("max_dt", a.max_dt)] {
+        if let Some(v) = v {
+            positive(out, &format!("{p}.{key}"), v, "time step (s)");
+        }
+    }
+    if let (Some(lo), Some(hi)) = (a.min_dt, a.max_dt) {
+        if lo > hi {
+            out.push(DeckIssue::new(
+                &format!("{p}.min_dt"),
+                format!("min_dt ({lo:e} s) exceeds max_dt ({hi:e} s)"),
+            ));
+        }
     }
 }

@@ -1,10 +1,12 @@
-//! Solvers: the force engine, the explicit velocity-Verlet integrator and the quasi-static
-//! load-step loop (adaptive dynamic relaxation).
+//! Solvers: the force engine, the explicit velocity-Verlet integrator (with the adaptive time
+//! step controller) and the quasi-static load-step loop (adaptive dynamic relaxation).
 
+pub mod adaptive_dt;
 pub mod forces;
 pub mod quasi_static;
 pub mod verlet;
 
+pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};
 pub use forces::ForceEngine;
 pub use quasi_static::{LoadStepReport, QuasiStatic, QuasiStaticSettings};
 pub use verlet::{Fields, Simulation, StepError};
