@@ -32,6 +32,9 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Draw the PNG plots of a finished (or interrupted) run's history.csv into RUN_DIR/plots:
+    /// energies, load–displacement per loaded node set, openings, broken bonds, time step.
+    Plot { run_dir: PathBuf },
     /// Validate a deck and print the model it builds (nodes, bonds, δ/Δx, constants, dt, memory).
     Check {
         deck: PathBuf,
@@ -91,6 +94,14 @@ fn main() -> ExitCode {
             )
             .map_err(|e| e.to_string())?;
             println!("{summary}");
+            Ok(())
+        })(),
+        Command::Plot { run_dir } => (|| {
+            let files = peridyn::plot::history_plots::write_history_plots(&run_dir)
+                .map_err(|e| e.to_string())?;
+            for f in files {
+                println!("{}", f.display());
+            }
             Ok(())
         })(),
         Command::Check { deck, threads } => (|| {

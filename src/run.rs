@@ -457,11 +457,10 @@ fn run_model<const D: usize, M: Material<D>>(
         deck.title.clone()
     };
     let mut observers: Vec<Box<dyn Observer<D>>> = vec![
-        Box::new(History::new::<D>(
-            &out.join("history.csv"),
-            history_every,
-            &sets,
-        )),
+        Box::new(
+            History::new::<D>(&out.join("history.csv"), history_every, &sets)
+                .with_openings(&opening_nodes(&sim.body, &deck.output.openings)),
+        ),
         Box::new(Snapshots::new(
             out.clone(),
             snapshot_every,
@@ -505,8 +504,40 @@ fn run_model<const D: usize, M: Material<D>>(
         out_dir: out.clone(),
         report,
     };
+    if deck.output.plots {
+        crate::plot::history_plots::write_history_plots(out)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
+    }
     crate::atomic_file::write_atomic(&out.join("summary.txt"), format!("{summary}\n").as_bytes())?;
     Ok(summary)
+}
+
+/// Each opening's name and the nodes nearest its two points (the lowest index on a tie).
+fn opening_nodes<const D: usize>(
+    body: &crate::body::Body<D>,
+    openings: &[crate::deck::schema::OpeningDeck],
+) -> Vec<(String, usize, usize)> {
+    let nearest = |p: &[f64]| {
+        let p = crate::math::vector_from_slice::<D>(p);
+        (0..body.len())
+            .min_by(|&a, &b| {
+                (body.positions[a] - p)
+                    .norm()
+                    .total_cmp(&(body.positions[b] - p).norm())
+                    .then(a.cmp(&b))
+            })
+            .unwrap_or(0)
+    };
+    openings
+        .iter()
+        .map(|o| {
+            (
+                o.name.clone(),
+                nearest(&o.between[0]),
+                nearest(&o.between[1]),
+            )
+        })
+        .collect()
 }
 
 /// The step loop: step, check for blow-up, offer the committed step to observers.

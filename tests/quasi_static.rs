@@ -339,3 +339,46 @@ fn split_load_steps_trace_the_fracture_and_fix_the_peak_load() {
     );
     assert!(change < 0.05);
 }
+
+#[test]
+fn a_run_records_openings_and_draws_its_history() {
+    // Probes in one column of the two grip layers: the opening is the pull.
+    let pull = 4e-6;
+    let mut ld = plate_deck(
+        pull,
+        1.0,
+        "[solver]\ntype = \"quasi_static\"\nload_steps = 2\ntolerance = 1e-9\n\n[output]\nsnapshots = 0\npng = false\n[[output.openings]]\nname = \"grips\"\nbetween = [[0.01025, 0.00075], [0.01025, 0.03925]]",
+        "",
+    );
+    ld.file = std::path::PathBuf::from("plate.toml");
+    let out = std::env::temp_dir().join(format!("peridyn-openings-{}", std::process::id()));
+    peridyn::run::run(
+        &ld,
+        &peridyn::run::RunOptions {
+            out_dir: out.clone(),
+            threads: None,
+            quiet: true,
+        },
+    )
+    .unwrap();
+    let table = peridyn::plot::history_plots::HistoryTable::read(&out.join("history.csv")).unwrap();
+    let opening = table.column("opening_grips").expect("an opening column");
+    let last = *opening.last().unwrap();
+    println!("opening of the grips {last:.6e} m for a pull of {pull:e} m");
+    assert!((last - pull).abs() < 1e-3 * pull);
+    assert_eq!(opening[0], 0.0);
+    for plot in [
+        "energies",
+        "load_displacement_top",
+        "load_displacement_bottom",
+        "openings",
+        "time_step",
+        "broken_bonds",
+    ] {
+        assert!(
+            out.join("plots").join(format!("{plot}.png")).exists(),
+            "{plot}"
+        );
+    }
+    std::fs::remove_dir_all(&out).ok();
+}

@@ -687,6 +687,23 @@ pub struct OutputDeck {
     /// Write PNG damage maps (2D only).
     #[serde(default = "default_true")]
     pub png: bool,
+    /// Write PNG plots of the history (energies, load–displacement, openings, time step) at
+    /// the end of the run.
+    #[serde(default = "default_true")]
+    pub plots: bool,
+    /// Openings between two points (e.g. the crack-mouth opening displacement, CMOD),
+    /// recorded in the history.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub openings: Vec<OpeningDeck>,
+}
+
+/// `[[output.openings]]`: the change of distance between the nodes nearest two points.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpeningDeck {
+    pub name: String,
+    /// The two points (m), `dimension` coordinates each.
+    pub between: [Vec<f64>; 2],
 }
 
 fn default_snapshots() -> u64 {
@@ -702,6 +719,8 @@ impl Default for OutputDeck {
             history_interval: None,
             snapshots: default_snapshots(),
             png: true,
+            plots: true,
+            openings: Vec::new(),
         }
     }
 }

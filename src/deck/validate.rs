@@ -392,6 +392,25 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         }
     }
 
+    let mut names = std::collections::BTreeSet::new();
+    for (k, o) in deck.output.openings.iter().enumerate() {
+        let p = format!("output.openings[{k}]");
+        if o.name.is_empty() || !o.name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+            out.push(DeckIssue::new(
+                &format!("{p}.name"),
+                format!("an opening's name becomes a history column: letters, digits and _ only, found {:?}", o.name),
+            ));
+        } else if !names.insert(o.name.clone()) {
+            out.push(DeckIssue::new(
+                &format!("{p}.name"),
+                format!("the opening {:?} is defined twice", o.name),
+            ));
+        }
+        for (j, point) in o.between.iter().enumerate() {
+            vector(&mut out, &format!("{p}.between[{j}]"), point, d);
+        }
+    }
+
     match &deck.solver {
         SolverDeck::Explicit {
             steps,

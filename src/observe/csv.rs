@@ -36,6 +36,12 @@ impl CsvHistory {
         }
     }
 
+    /// Appends a column name; only before the first row.
+    pub fn add_column(&mut self, name: String) {
+        assert!(self.rows.is_empty(), "columns are fixed once rows exist");
+        self.header.push(name);
+    }
+
     /// Path of the CSV file.
     pub fn path(&self) -> &Path {
         &self.path

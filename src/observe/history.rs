@@ -1,5 +1,6 @@
 //! The CSV history: energies, broken bonds, the step (time step or load increment, and
-//! iterations), and the reaction force and mean displacement of every named node set.
+//! iterations), the reaction force and mean displacement of every named node set, and the
+//! openings between probe nodes.
 
 use super::csv::CsvHistory;
 use super::observer::{Every, Observer, StepView};
@@ -10,6 +11,8 @@ pub struct History {
     csv: CsvHistory,
     every: Every,
     sets: Vec<Vec<u32>>,
+    /// Node pairs whose change of distance is recorded (`opening_<name>`).
+    openings: Vec<(usize, usize)>,
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -43,7 +46,18 @@ impl History {
             csv: CsvHistory::new(path, header),
             every: Every(every),
             sets: set_names.iter().map(|(_, n)| n.clone()).collect(),
+            openings: Vec::new(),
         }
+    }
+
+    /// Adds a column `opening_<name>` per (name, node a, node b): |y_b − y_a| − |x_b − x_a|,
+    /// e.g. the crack-mouth opening displacement between two probe nodes.
+    pub fn with_openings(mut self, openings: &[(String, usize, usize)]) -> Self {
+        for (name, a, b) in openings {
+            self.csv.add_column(format!("opening_{name}"));
+            self.openings.push((*a, *b));
+        }
+        self
     }
 }
 
@@ -74,6 +88,10 @@ impl<const D: usize> Observer<D> for History {
             let r = view.reaction(nodes);
             row.extend(r.iter());
             row.extend(mean_displacement(&state.u, nodes).iter());
+        }
+        let x = &view.body.positions;
+        for &(a, b) in &self.openings {
+            row.push((state.current[b] - state.current[a]).norm() - (x[b] - x[a]).norm());
         }
         self.csv.push(row)?;
         if view.last {

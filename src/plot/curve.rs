@@ -65,6 +65,26 @@ fn axis_range(values: impl Iterator<Item = f64>, pad_frac: f64) -> Range<f64> {
     lo - pad_frac * span..hi + pad_frac * span
 }
 
+/// Tick labels readable at the axis's scale: plain decimals with enough digits for the span,
+/// or scientific notation for very small or large values.
+fn tick_format(range: &Range<f64>) -> impl Fn(&f64) -> String {
+    let span = (range.end - range.start).abs();
+    let size = range.start.abs().max(range.end.abs());
+    let scientific = size > 0.0 && !(1e-2..1e5).contains(&size);
+    let decimals = if span > 0.0 {
+        (-(span / 5.0).log10().floor()).clamp(0.0, 6.0) as usize
+    } else {
+        2
+    };
+    move |v: &f64| {
+        if scientific {
+            format!("{v:.2e}")
+        } else {
+            format!("{v:.decimals$}")
+        }
+    }
+}
+
 /// Renders the plot into an RGB buffer of size [`SIZE`].
 pub(crate) fn render_curves(
     title: &str,
@@ -82,6 +102,7 @@ pub(crate) fn render_curves(
         let err = |e: DrawingAreaErrorKind<_>| e.to_string();
         let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
+        let (x_ticks, y_ticks) = (tick_format(&xr), tick_format(&yr));
         let mut chart = ChartBuilder::on(&root)
             .caption(title, (font::FAMILY, 22))
             .margin(12)
@@ -91,6 +112,8 @@ pub(crate) fn render_curves(
             .map_err(err)?;
         chart
             .configure_mesh()
+            .x_label_formatter(&x_ticks)
+            .y_label_formatter(&y_ticks)
             .x_desc(x_label)
             .y_desc(y_label)
             .label_style((font::FAMILY, 14))
@@ -122,8 +145,14 @@ pub(crate) fn render_curves(
             }
             let mut first = true;
             for run in runs {
+                // One element per segment: joined thick paths draw long miter spikes where a
+                // curve turns sharply (a load drop).
                 let ann = chart
-                    .draw_series(std::iter::once(PathElement::new(run.to_vec(), style)))
+                    .draw_series(
+                        run.windows(2)
+                            .map(|w| PathElement::new(w.to_vec(), style))
+                            .chain((run.len() == 1).then(|| PathElement::new(run.to_vec(), style))),
+                    )
                     .map_err(err)?;
                 if first {
                     ann.label(*name)

@@ -1,3 +1,4 @@
 pub mod curve;
 pub mod damage_map;
 mod font;
+pub mod history_plots;
