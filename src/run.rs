@@ -9,6 +9,7 @@ use crate::deck::build::{
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
+use crate::observe::crack_tip::{CrackReport, CrackTips};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
 use crate::observe::snapshots::Snapshots;
@@ -188,6 +189,8 @@ pub struct RunSummary {
     pub external_work: f64,
     pub timers: String,
     pub out_dir: PathBuf,
+    /// With `[analysis.crack_tip]`: the Rayleigh speed and each branch's mean crack speed.
+    pub crack: Option<CrackReport>,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -204,6 +207,9 @@ impl std::fmt::Display for RunSummary {
             "energies         kinetic {:.5e} J, strain {:.5e} J, external work {:.5e} J",
             self.kinetic_energy, self.strain_energy, self.external_work
         )?;
+        if let Some(c) = &self.crack {
+            writeln!(f, "crack            {c}")?;
+        }
         writeln!(f, "timers           {}", self.timers)?;
         write!(f, "results in       {}", self.out_dir.display())
     }
@@ -469,6 +475,15 @@ fn run_model<const D: usize, M: Material<D>>(
         )?),
         Box::new(Progress::new(report.steps, opts.quiet)),
     ];
+    let crack = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
+        Some(tip) => {
+            let observer = crack_tips(deck, tip, &sim, &report, out);
+            let handle = observer.report();
+            observers.push(Box::new(observer));
+            Some(handle)
+        }
+        None => None,
+    };
 
     let started = Instant::now();
     let settings = solver_settings(deck);
@@ -503,6 +518,7 @@ fn run_model<const D: usize, M: Material<D>>(
         ),
         out_dir: out.clone(),
         report,
+        crack: crack.and_then(|c| c.borrow().clone()),
     };
     if deck.output.plots {
         crate::plot::history_plots::write_history_plots(out)
@@ -538,6 +554,53 @@ fn opening_nodes<const D: usize>(
             )
         })
         .collect()
+}
+
+/// The crack-tip observer of `[analysis.crack_tip]`. The Rayleigh speed is that of the model's
+/// E and ν (`ModelReport`, the first material's) and node 0's density, in plane stress, plane
+/// strain or 3D as the deck says. In 3D the front is the damaged nodes within one grid spacing
+/// (the smallest cell size) of the tip.
+fn crack_tips<const D: usize, M: Material<D>>(
+    deck: &crate::deck::Deck,
+    tip: &crate::deck::schema::CrackTipDeck,
+    sim: &Simulation<D, M>,
+    report: &ModelReport,
+    out: &std::path::Path,
+) -> CrackTips<D> {
+    use crate::analysis::{rayleigh_speed, Branch, SearchBox, TipTracker, WaveSetting};
+    use crate::deck::schema::Plane;
+    use crate::math::Vector;
+    let vector = |v: &[f64]| Vector::<D>::from_iterator(v.iter().copied());
+    let branches = if tip.branches.is_empty() {
+        vec![Branch {
+            name: "crack".into(),
+            search: None,
+        }]
+    } else {
+        tip.branches
+            .iter()
+            .map(|b| Branch {
+                name: b.name.clone(),
+                search: Some(SearchBox::new(vector(&b.min), vector(&b.max))),
+            })
+            .collect()
+    };
+    let mut tracker = TipTracker::new(tip.threshold, vector(&tip.direction), branches);
+    if D == 3 {
+        tracker = tracker.with_front(sim.body.min_cell_size());
+    }
+    let setting = match (D, deck.plane) {
+        (3, _) => WaveSetting::ThreeD,
+        (_, Some(Plane::Strain)) => WaveSetting::PlaneStrain,
+        _ => WaveSetting::PlaneStress,
+    };
+    let rayleigh = rayleigh_speed(
+        report.youngs_modulus,
+        report.poisson_ratio,
+        sim.densities[0],
+        setting,
+    );
+    CrackTips::new(out, tracker, tip.interval, tip.window, rayleigh)
 }
 
 /// The step loop: step, check for blow-up, offer the committed step to observers.

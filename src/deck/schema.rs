@@ -53,6 +53,9 @@ pub struct Deck {
     pub solver: SolverDeck,
     #[serde(default)]
     pub output: OutputDeck,
+    /// Fracture analysis during the run (crack tip and speed); absent: none, at no cost.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub analysis: Option<AnalysisDeck>,
     /// The `[derived]` table peridyn writes into `resolved.toml`; ignored when read, so a
     /// resolved deck runs again as it is.
     #[serde(default, skip_serializing)]
@@ -723,4 +726,57 @@ impl Default for OutputDeck {
             openings: Vec::new(),
         }
     }
+}
+
+/// `[analysis]`: what to measure on the damage field while the run goes on.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnalysisDeck {
+    /// Crack-tip tracking and crack speed (`crack_tip.csv`, `crack_speed.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crack_tip: Option<CrackTipDeck>,
+}
+
+/// `[analysis.crack_tip]`: the tip is the damaged node furthest along `direction` (seed 000
+/// App. 2), sampled every `interval` steps; the speed is a forward difference over `window`
+/// samples.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrackTipDeck {
+    /// Propagation direction (one component per dimension, non-zero; normalised).
+    pub direction: Vec<f64>,
+    /// A node is damaged when its damage exceeds this (seed 000 App. 2: 0.35; seed 002: 0.4).
+    #[serde(default = "default_tip_threshold")]
+    pub threshold: f64,
+    /// Steps between samples (the last step is always sampled).
+    #[serde(default = "default_tip_interval")]
+    pub interval: u64,
+    /// Samples spanned by one speed difference (seed 000 App. 2: 30).
+    #[serde(default = "default_tip_window")]
+    pub window: usize,
+    /// Search boxes of the branches of a branching crack (seed 000 Fig. 22); none: one branch
+    /// "crack" over the whole body.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub branches: Vec<BranchDeck>,
+}
+
+/// One crack branch: its name in the output and the box its tip is searched in.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BranchDeck {
+    pub name: String,
+    /// Lower corner of the search box (m).
+    pub min: Vec<f64>,
+    /// Upper corner of the search box (m).
+    pub max: Vec<f64>,
+}
+
+fn default_tip_threshold() -> f64 {
+    0.35
+}
+fn default_tip_interval() -> u64 {
+    10
+}
+fn default_tip_window() -> usize {
+    30
 }

@@ -523,7 +523,74 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
             }
         }
     }
+    if let Some(tip) = deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
+        validate_crack_tip(&mut out, tip, d);
+    }
     out
+}
+
+/// `[analysis.crack_tip]`: a usable direction, threshold, schedule and branch boxes.
+fn validate_crack_tip(out: &mut Vec<DeckIssue>, tip: &CrackTipDeck, d: usize) {
+    let p = "analysis.crack_tip";
+    let at = |key: &str| format!("{p}.{key}");
+    let before = out.len();
+    vector(out, &at("direction"), &tip.direction, d);
+    if out.len() == before && tip.direction.iter().all(|x| *x == 0.0) {
+        out.push(DeckIssue::new(
+            &at("direction"),
+            "the propagation direction must be non-zero",
+        ));
+    }
+    // Damage lies in [0, 1]; "above 1" would never hold, so 1 is refused too.
+    if !(tip.threshold >= 0.0 && tip.threshold < 1.0) {
+        out.push(DeckIssue::new(
+            &at("threshold"),
+            format!(
+                "the damage threshold must lie in [0, 1), found {}",
+                tip.threshold
+            ),
+        ));
+    }
+    if tip.interval == 0 {
+        out.push(DeckIssue::new(
+            &at("interval"),
+            "expected at least 1 step between tip samples, found 0",
+        ));
+    }
+    if tip.window == 0 {
+        out.push(DeckIssue::new(
+            &at("window"),
+            "expected a speed window of at least 1 sample, found 0",
+        ));
+    }
+    let mut names: Vec<&str> = Vec::new();
+    for (k, b) in tip.branches.iter().enumerate() {
+        let bp = format!("{p}.branches[{k}]");
+        if b.name.trim().is_empty() {
+            out.push(DeckIssue::new(
+                &format!("{bp}.name"),
+                "expected a branch name (it prefixes the branch's columns)",
+            ));
+        } else if names.contains(&b.name.as_str()) {
+            out.push(DeckIssue::new(
+                &format!("{bp}.name"),
+                format!("branch {:?} is defined twice", b.name),
+            ));
+        }
+        names.push(&b.name);
+        let before = out.len();
+        vector(out, &format!("{bp}.min"), &b.min, d);
+        vector(out, &format!("{bp}.max"), &b.max, d);
+        if out.len() == before && b.min.iter().zip(&b.max).any(|(lo, hi)| lo >= hi) {
+            out.push(DeckIssue::new(
+                &format!("{bp}.max"),
+                format!(
+                    "the search box needs min < max in every component, found min {:?}, max {:?}",
+                    b.min, b.max
+                ),
+            ));
+        }
+    }
 }
 
 /// Checks one material table (`[material]` or `[materials.NAME]`, at `path`).

@@ -112,7 +112,7 @@ impl CsvHistory {
 /// never switches to exponent form, so tiny/huge values would become very long
 /// strings of zeros. Use plain form in a readable range (integral values such
 /// as step counts print without `.0`, e.g. `100`) and scientific otherwise.
-fn push_number(s: &mut String, v: f64) {
+pub(crate) fn push_number(s: &mut String, v: f64) {
     let a = v.abs();
     if v == 0.0 || !v.is_finite() || (1e-4..1e16).contains(&a) {
         let _ = write!(s, "{v}");
@@ -122,7 +122,7 @@ fn push_number(s: &mut String, v: f64) {
 }
 
 /// Quotes a header cell if it contains a separator, quote or newline.
-fn quote(h: &str) -> String {
+pub(crate) fn quote(h: &str) -> String {
     if h.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", h.replace('"', "\"\""))
     } else {
