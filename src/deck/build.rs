@@ -24,7 +24,7 @@ use crate::material::surface_correction::{
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
-use crate::solver::{AdaptiveDtSettings, QuasiStaticSettings};
+use crate::solver::{AdaptiveDtSettings, EquilibriumMethod, QuasiStaticSettings};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -1065,7 +1065,7 @@ pub fn solver_settings(deck: &Deck) -> SolverSettings {
         SolverDeck::QuasiStatic {
             load_steps,
             end_time,
-            method: QuasiStaticMethod::Adr,
+            method,
             tolerance,
             max_iterations,
             mass_factor,
@@ -1078,6 +1078,10 @@ pub fn solver_settings(deck: &Deck) -> SolverSettings {
             dt: Some(end_time / *load_steps as f64),
             safety_factor: 1.0,
             quasi_static: Some(QuasiStaticSettings {
+                method: match method {
+                    QuasiStaticMethod::Adr => EquilibriumMethod::Adr,
+                    QuasiStaticMethod::Ncg => EquilibriumMethod::Ncg,
+                },
                 tolerance: *tolerance,
                 max_iterations: *max_iterations,
                 mass_factor: *mass_factor,

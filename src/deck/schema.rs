@@ -657,6 +657,9 @@ pub enum QuasiStaticMethod {
     /// Adaptive dynamic relaxation (Kilic & Madenci 2010).
     #[default]
     Adr,
+    /// Nonlinear conjugate gradients (Polak–Ribière, secant line search) on the potential
+    /// energy: convex models only (no softening law).
+    Ncg,
 }
 
 fn default_qs_tolerance() -> f64 {

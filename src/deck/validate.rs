@@ -458,6 +458,7 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         SolverDeck::QuasiStatic {
             load_steps,
             end_time,
+            method,
             tolerance,
             max_iterations,
             mass_factor,
@@ -465,6 +466,20 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
             max_broken_bonds,
             ..
         } => {
+            let softens = std::iter::once(&deck.material)
+                .chain(deck.materials.values())
+                .any(|m| {
+                    matches!(
+                        m.damage(),
+                        DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. }
+                    )
+                });
+            if *method == QuasiStaticMethod::Ncg && softens {
+                out.push(DeckIssue::new(
+                    "solver.method",
+                    "conjugate gradients minimise a convex energy; a bilinear or trilinear softening law is not convex (seed 001 §2.10): use method = \"adr\"",
+                ));
+            }
             if *load_steps == 0 {
                 out.push(DeckIssue::new(
                     "solver.load_steps",

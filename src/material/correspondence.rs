@@ -13,7 +13,7 @@
 //! energy density is exactly W = ½ E:C:E. Taking C:E itself as the Cauchy stress,
 //! P = J (C:E) F⁻ᵀ, agrees to first order in the strain but is not objective (a rigid rotation
 //! Q of a strained state gives J (C:E) Q F⁻ᵀ instead of Q P: 41 % off at 0.3 rad) and has no
-//! energy (f ≠ −∂W/∂u at O(|E|)); `tests/correspondence.rs` and `tests/conformance.rs` check
+//! energy (f ≠ −∂W/∂u at O(|E|)); `tests/suite/correspondence.rs` and `tests/suite/conformance.rs` check
 //! both properties.
 //!
 //! A node whose shape tensor is singular or ill-conditioned (fewer than D independent intact

@@ -5,7 +5,7 @@
 //!
 //! Adding a model touches: its file here, a variant of `MaterialDeck` and its calibration
 //! (`deck/`), one arm of the dispatch in `run.rs` (and of `Mixed`), and the conformance list
-//! in `tests/conformance.rs`. See `docs/architecture.md`.
+//! in `tests/suite/conformance.rs`. See `docs/architecture.md`.
 
 pub mod calibration;
 pub mod correspondence;

@@ -2,7 +2,7 @@
 //! that provide them (PMB force; LPS pre-pass and force). Same laws, failure rule and
 //! partial-volume factor as the generic loops; only the order in which a node's bond terms are
 //! summed differs (four lanes, then the tail), and it is fixed, so results stay bitwise
-//! identical for any thread count. `tests/kernels.rs` checks them against the generic loop.
+//! identical for any thread count. `tests/suite/kernels.rs` checks them against the generic loop.
 
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::PartialVolume;

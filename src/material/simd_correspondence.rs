@@ -4,7 +4,7 @@
 //! the own-half sums Σ s ξ, Σ s η (see `Correspondence` and `Material::FACTORED_OWN_HALF`).
 //! Same terms, failure rule and partial-volume factor as the generic loops (`super::simd`'s
 //! helpers); only the summation order differs (four lanes, then the tail), and it is fixed,
-//! so results stay bitwise identical for any thread count. `tests/kernels.rs` compares them
+//! so results stay bitwise identical for any thread count. `tests/suite/kernels.rs` compares them
 //! with the generic loop.
 
 use super::simd::NodeBonds;

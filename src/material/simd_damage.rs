@@ -3,7 +3,7 @@
 //! rule and arithmetic as the generic loop (`solver::forces`, `UniformSoftening::on_stretch`
 //! and `factors`); only the order of a node's bond terms differs (four lanes, then the tail),
 //! and it is fixed, so results stay bitwise identical for any thread count.
-//! `tests/kernels.rs` checks it against the generic loop.
+//! `tests/suite/kernels.rs` checks it against the generic loop.
 
 #[cfg(target_arch = "x86_64")]
 use super::simd::avx::{add_force, bond_vectors, intact, own_position, phi, pmb_per_length, sum};

@@ -6,7 +6,7 @@
 //! seed 002 Eq. 6), and both halves break once w ≥ w_c φ̄ (unless an end is no-fail, or,
 //! with `tension_only`, the bond is not in tension; seed 004 §2.6). Only the order of a node's
 //! bond terms differs (four lanes, then the tail), and it is fixed, so results stay bitwise
-//! identical for any thread count. `tests/kernels.rs` checks them against the generic loop.
+//! identical for any thread count. `tests/suite/kernels.rs` checks them against the generic loop.
 //!
 //! The LPS pre-pass needs only the bond status under this law and runs the ordinary kernel
 //! in 3D (`simd::lps_dilatation_sum`, with no failure decided), the generic loop in 2D.

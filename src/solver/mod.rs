@@ -3,10 +3,11 @@
 
 pub mod adaptive_dt;
 pub mod forces;
+pub mod ncg;
 pub mod quasi_static;
 pub mod verlet;
 
 pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};
 pub use forces::ForceEngine;
-pub use quasi_static::{LoadStepReport, QuasiStatic, QuasiStaticSettings};
+pub use quasi_static::{EquilibriumMethod, LoadStepReport, QuasiStatic, QuasiStaticSettings};
 pub use verlet::{Fields, Simulation, StepError};

@@ -28,6 +28,7 @@
 //! the relaxation path, which for an elastic bond is the energy difference between its end
 //! states.
 
+use super::ncg::Ncg;
 use super::{Simulation, StepError};
 use crate::material::Material;
 use crate::math::Vector;
@@ -37,6 +38,8 @@ use std::time::Instant;
 /// Parameters of the quasi-static solver (deck `[solver] type = "quasi_static"`).
 #[derive(Debug, Clone)]
 pub struct QuasiStaticSettings {
+    /// How each equilibrium is found.
+    pub method: EquilibriumMethod,
     /// Relative residual at which a relaxation has converged.
     pub tolerance: f64,
     /// ADR iterations allowed per relaxation.
@@ -51,9 +54,19 @@ pub struct QuasiStaticSettings {
     pub max_splits: u32,
 }
 
+/// How a load step finds equilibrium.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EquilibriumMethod {
+    /// Adaptive dynamic relaxation: any model and damage law.
+    Adr,
+    /// Nonlinear conjugate gradients on the potential energy: convex models only.
+    Ncg,
+}
+
 impl Default for QuasiStaticSettings {
     fn default() -> Self {
         QuasiStaticSettings {
+            method: EquilibriumMethod::Adr,
             tolerance: 1e-6,
             max_iterations: 200_000,
             mass_factor: 1.0,
@@ -93,6 +106,8 @@ pub struct QuasiStatic<const D: usize> {
     frozen: Vec<bool>,
     /// Squared norm of the largest loading forces of a committed equilibrium.
     largest_load: f64,
+    /// The conjugate-gradient minimiser, when that is the method.
+    ncg: Option<Ncg<D>>,
     /// Total ADR iterations.
     pub iterations: u64,
 }
@@ -105,12 +120,14 @@ impl<const D: usize> QuasiStatic<D> {
         increment: f64,
     ) -> Self {
         let n = sim.body.len();
-        let mass = sim
+        let settings_method = settings.method;
+        let mass: Vec<f64> = sim
             .engine
             .node_stiffness(&sim.body, &sim.bonds)
             .into_iter()
             .map(|k| settings.mass_factor * 0.5 * k)
             .collect();
+        let ncg = (settings_method == EquilibriumMethod::Ncg).then(|| Ncg::new(sim, &mass));
         QuasiStatic {
             settings,
             mass,
@@ -120,6 +137,7 @@ impl<const D: usize> QuasiStatic<D> {
             nominal: increment,
             frozen: vec![true; n],
             largest_load: 0.0,
+            ncg,
             iterations: 0,
         }
     }
@@ -225,6 +243,17 @@ impl<const D: usize> QuasiStatic<D> {
     /// Relaxes the body to equilibrium with the damage state frozen; returns the iterations.
     fn relax<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
         let tol = self.settings.tolerance;
+        if let Some(ncg) = self.ncg.as_mut() {
+            let (largest, max) = (self.largest_load, self.settings.max_iterations);
+            let found = ncg.minimise(sim, max, |s| relative_residual(s, largest).0 <= tol)?;
+            return match found {
+                Some(evaluations) => Ok(evaluations),
+                None => {
+                    let (residual, node, _) = self.residual(sim);
+                    Err(self.not_converged(sim, max, residual, node))
+                }
+            };
+        }
         let (mut residual, ..) = self.residual(sim);
         let start_residual = residual;
         let mask = sim.constrained_mask.clone();
@@ -323,54 +352,7 @@ impl<const D: usize> QuasiStatic<D> {
     /// The relative residual, the node with the largest out-of-balance force, and the squared
     /// norm of the loading forces it is measured against.
     pub fn residual<M: Material<D>>(&self, sim: &Simulation<D, M>) -> (f64, usize, f64) {
-        let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
-        let chunk = 4096;
-        // Fixed chunks summed in order: the same result for any thread count.
-        let n = s.u.len();
-        let parts: Vec<(f64, f64, f64, usize)> = (0..n.div_ceil(chunk))
-            .into_par_iter()
-            .map(|c| {
-                let (mut free, mut held, mut worst, mut worst_node) = (0.0, 0.0, -1.0, 0);
-                for i in c * chunk..((c + 1) * chunk).min(n) {
-                    let mut own = 0.0;
-                    for (k, &held_k) in mask[i].iter().take(D).enumerate() {
-                        let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
-                        if held_k {
-                            held += f * f;
-                        } else {
-                            own += f * f;
-                            let b = vol[i] * s.body_force[i][k];
-                            held += b * b;
-                        }
-                    }
-                    free += own;
-                    if own > worst {
-                        (worst, worst_node) = (own, i);
-                    }
-                }
-                (free, held, worst, worst_node)
-            })
-            .collect();
-        let (mut free, mut held, mut worst, mut node) = (0.0, 0.0, -1.0, 0);
-        for (f, h, w, i) in parts {
-            free += f;
-            held += h;
-            if w > worst {
-                (worst, node) = (w, i);
-            }
-        }
-        // Against the largest loading of any equilibrium so far: once a crack has cut the
-        // body and the reactions vanish, equilibrium is still judged at the scale of the loads
-        // it carried.
-        let held = held.max(self.largest_load);
-        let relative = if held > 0.0 {
-            (free / held).sqrt()
-        } else if free == 0.0 {
-            0.0
-        } else {
-            f64::INFINITY
-        };
-        (relative, node, held)
+        relative_residual(sim, self.largest_load)
     }
 
     fn not_converged<M: Material<D>>(
@@ -384,7 +366,11 @@ impl<const D: usize> QuasiStatic<D> {
             step: sim.state.step + 1,
             time: sim.state.time,
             what: format!(
-                "relative residual {residual:.3e} after {iterations} ADR iterations (tolerance {:.1e}, max_iterations {}); the largest out-of-balance force is at node {node}, x = {:?}; raise max_iterations or mass_factor, or use smaller load steps",
+                "relative residual {residual:.3e} after {iterations} {} (tolerance {:.1e}, max_iterations {}); the largest out-of-balance force is at node {node}, x = {:?}; raise max_iterations or mass_factor, or use smaller load steps",
+                match self.settings.method {
+                    EquilibriumMethod::Adr => "ADR iterations",
+                    EquilibriumMethod::Ncg => "force evaluations of conjugate gradients",
+                },
                 self.settings.tolerance,
                 self.settings.max_iterations,
                 sim.body.positions[node].iter().collect::<Vec<_>>()
@@ -421,4 +407,61 @@ impl<const D: usize> QuasiStatic<D> {
             .map(|i| 0.5 * (load0[i] + load1[i]).dot(&(sim.state.u[i] - u0[i])))
             .sum()
     }
+}
+
+/// The relative residual of `sim` (see the module docs) against its loading or `largest_load`,
+/// whichever is larger; the node with the largest out-of-balance force; the loading's squared
+/// norm.
+fn relative_residual<const D: usize, M: Material<D>>(
+    sim: &Simulation<D, M>,
+    largest_load: f64,
+) -> (f64, usize, f64) {
+    let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
+    let chunk = 4096;
+    // Fixed chunks summed in order: the same result for any thread count.
+    let n = s.u.len();
+    let parts: Vec<(f64, f64, f64, usize)> = (0..n.div_ceil(chunk))
+        .into_par_iter()
+        .map(|c| {
+            let (mut free, mut held, mut worst, mut worst_node) = (0.0, 0.0, -1.0, 0);
+            for i in c * chunk..((c + 1) * chunk).min(n) {
+                let mut own = 0.0;
+                for (k, &held_k) in mask[i].iter().take(D).enumerate() {
+                    let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
+                    if held_k {
+                        held += f * f;
+                    } else {
+                        own += f * f;
+                        let b = vol[i] * s.body_force[i][k];
+                        held += b * b;
+                    }
+                }
+                free += own;
+                if own > worst {
+                    (worst, worst_node) = (own, i);
+                }
+            }
+            (free, held, worst, worst_node)
+        })
+        .collect();
+    let (mut free, mut held, mut worst, mut node) = (0.0, 0.0, -1.0, 0);
+    for (f, h, w, i) in parts {
+        free += f;
+        held += h;
+        if w > worst {
+            (worst, node) = (w, i);
+        }
+    }
+    // Against the largest loading of any equilibrium so far: once a crack has cut the
+    // body and the reactions vanish, equilibrium is still judged at the scale of the loads
+    // it carried.
+    let held = held.max(largest_load);
+    let relative = if held > 0.0 {
+        (free / held).sqrt()
+    } else if free == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    };
+    (relative, node, held)
 }

@@ -2,7 +2,7 @@
 //! objectivity, zero-energy-mode control (static and dynamic), and nodes whose shape tensor
 //! is singular.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::body::Body;

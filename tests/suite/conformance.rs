@@ -2,7 +2,7 @@
 //! balance, rigid-motion invariance, and forces equal to minus the energy gradient.
 //! Adding a model means adding a line to `for_every_model!`.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::body::Body;

@@ -16,7 +16,7 @@
 //!   crosses the level interface with a reflection below 2 %.
 //! - A deck's `[[blocks]] horizon` calibrates every node for its own horizon.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::body::Body;

@@ -1,7 +1,7 @@
 //! The vector kernels compute what the generic loop computes: same forces up to the order of
 //! summation, the same bonds broken.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::bonds::PartialVolume;

@@ -9,7 +9,7 @@
 //! For the LPS each half is two horizons long: a node's dilatation depends on its whole family,
 //! which must not reach the bar's ends (the calibration assumes two half-spaces).
 
-mod common;
+use super::common;
 
 use common::THICKNESS;
 use peridyn::body::Body;

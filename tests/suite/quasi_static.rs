@@ -3,7 +3,7 @@
 //! splitting of load steps that break too many bonds, and a clear error when it cannot
 //! converge.
 
-mod common;
+use super::common;
 
 use peridyn::bonds::PartialVolume;
 use peridyn::damage::Damage;
@@ -14,7 +14,7 @@ use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Pmb};
 use peridyn::math::Vector;
 use peridyn::run::{drive, drive_quasi_static, prepare, RunError};
-use peridyn::solver::{QuasiStatic, QuasiStaticSettings, Simulation};
+use peridyn::solver::{EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
 use std::path::Path;
 
 /// A 2D plane-stress PMB plate 20 mm × 40 mm (Δx = 0.5 mm, δ = 3Δx) between two grip layers
@@ -89,6 +89,15 @@ fn solve(ld: &LoadedDeck) -> Result<Simulation<2, Pmb>, RunError> {
 /// exact discrete equilibrium is that field. Returns the largest error of the free nodes
 /// relative to the largest displacement.
 fn patch_error<M: Material<2>>(material: M, eps: [[f64; 2]; 2]) -> f64 {
+    patch_error_with(material, eps, EquilibriumMethod::Adr).0
+}
+
+/// `patch_error` with the given method; also the iterations (ADR) or force evaluations (NCG).
+fn patch_error_with<M: Material<2>>(
+    material: M,
+    eps: [[f64; 2]; 2],
+    method: EquilibriumMethod,
+) -> (f64, u64) {
     let (dx, m) = (0.5e-3, 3.0);
     let (body, bonds) = common::lattice_body::<2>(40, dx, m, PartialVolume::Hhb);
     let (side, layer) = (40.0 * dx, 2.0 * m * dx);
@@ -127,6 +136,7 @@ fn patch_error<M: Material<2>>(material: M, eps: [[f64; 2]; 2]) -> f64 {
     )
     .unwrap();
     let settings = QuasiStaticSettings {
+        method,
         tolerance: 1e-10,
         ..Default::default()
     };
@@ -140,12 +150,12 @@ fn patch_error<M: Material<2>>(material: M, eps: [[f64; 2]; 2]) -> f64 {
         .map(|i| (sim.state.u[i] - field(&sim.body.positions[i])).norm())
         .fold(0.0, f64::max);
     println!(
-        "{} iterations, residual {:.2e}: largest error {:.3e} of the largest displacement",
+        "{method:?}: {} iterations, residual {:.2e}: largest error {:.3e} of the largest displacement",
         report.iterations,
         report.residual,
         error / scale
     );
-    error / scale
+    (error / scale, report.iterations)
 }
 
 #[test]
@@ -163,6 +173,23 @@ fn relaxation_reproduces_a_homogeneous_deformation_exactly() {
     }
     let control = ZeroEnergyControl::Wan { coefficient: 1.0 };
     assert!(patch_error(common::correspondence(plane, e, 0.3, h, control), biaxial) < 1e-6);
+}
+
+#[test]
+fn conjugate_gradients_reproduce_a_homogeneous_deformation_exactly() {
+    let (e, h) = (1e9, 1.5e-3);
+    let plane = Dimensionality::PlaneStress;
+    let biaxial = [[2e-4, 0.0], [0.0, 1e-4]];
+    let shear = [[0.0, 1e-4], [1e-4, 0.0]];
+    for eps in [biaxial, shear] {
+        let pmb = || common::pmb(plane, e, h, MicromodulusProfile::Constant);
+        let (error, evaluations) = patch_error_with(pmb(), eps, EquilibriumMethod::Ncg);
+        let (_, adr) = patch_error_with(pmb(), eps, EquilibriumMethod::Adr);
+        println!("NCG {evaluations} force evaluations, ADR {adr}");
+        assert!(error < 1e-6);
+        let lps = common::lps(plane, e, 0.3, h);
+        assert!(patch_error_with(lps, eps, EquilibriumMethod::Ncg).0 < 1e-6);
+    }
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Patch tests: a homogeneous deformation must give the classical strain energy density
 //! (bond-based PMB, whose ν is fixed) and the classical stress (LPS, any ν) at a bulk node.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::bonds::{PartialVolume, Quadrature};

@@ -3,7 +3,7 @@
 //! stress of a body under isotropic expansion (every bond at the same stretch, the condition
 //! of seed 001 Eq. 13) equals the tensile strength σu; IH-PD porosity is repeatable.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::body::Body;

@@ -2,7 +2,7 @@
 //! the sum of the micropotentials at the critical stretch over all bonds crossing a plane,
 //! per unit area, using the code's own families, partial volumes and calibration.
 
-mod common;
+use super::common;
 
 use common::*;
 use peridyn::bonds::PartialVolume;

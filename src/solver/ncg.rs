@@ -1,0 +1,167 @@
+//! Nonlinear conjugate gradients: equilibrium as the minimum of the potential energy
+//! Π(u) = Σ_i W_i V_i − Σ_i b_i·u_i V_i over the free degrees of freedom, for convex models
+//! (seed 000 §2.10, seed 001 §2.10: PMB with critical stretch; softening laws are not convex).
+//!
+//! Polak–Ribière with restarts (β ≤ 0, or every `n` iterations), Jacobi-preconditioned by the
+//! same diagonal stiffness bound as dynamic relaxation, and a secant line search on the
+//! directional derivative Π'(u + αd)·d = −r(u + αd)·d (Shewchuk 1994, "An introduction to the
+//! conjugate gradient method without the agonizing pain", algorithm B5): only force
+//! evaluations, no energy. The residual r = V (f + b) on the free components is the negative
+//! gradient. Bonds do not break during a minimisation (the caller freezes the damage state).
+
+use super::{Simulation, StepError};
+use crate::material::Material;
+use crate::math::Vector;
+use rayon::prelude::*;
+
+/// Fixed chunk for deterministic parallel sums.
+const CHUNK: usize = 4096;
+
+/// The minimiser's buffers: preconditioner, search direction, residuals.
+pub struct Ncg<const D: usize> {
+    /// 1/(V_i λ_i) per node: the inverse of the diagonal stiffness bound.
+    inverse_diagonal: Vec<f64>,
+    direction: Vec<Vector<D>>,
+}
+
+impl<const D: usize> Ncg<D> {
+    /// `stiffness`: λ_i, the diagonal bound per node (force density per displacement).
+    pub fn new<M: Material<D>>(sim: &Simulation<D, M>, stiffness: &[f64]) -> Self {
+        let inverse_diagonal = stiffness
+            .iter()
+            .zip(&sim.body.volumes)
+            .map(|(&k, &v)| if k > 0.0 { 1.0 / (k * v) } else { 0.0 })
+            .collect();
+        Ncg {
+            inverse_diagonal,
+            direction: vec![Vector::zeros(); sim.body.len()],
+        }
+    }
+
+    /// Minimises from the current state until `converged(sim)`; returns the force
+    /// evaluations used, or the error of a failed evaluation. `max_evaluations` bounds the
+    /// work; on reaching it the state is the best found so far and `Ok(None)` is returned.
+    pub fn minimise<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        max_evaluations: u64,
+        converged: impl Fn(&Simulation<D, M>) -> bool,
+    ) -> Result<Option<u64>, StepError> {
+        let n_free = sim
+            .constrained_mask
+            .iter()
+            .map(|m| m[..D].iter().filter(|c| !**c).count())
+            .sum::<usize>()
+            .max(1);
+        let mut evaluations = 0u64;
+        let mut r = self.residual(sim);
+        let mut s = self.precondition(&r);
+        self.direction.clone_from(&s);
+        let mut delta_new = dot(&r, &s);
+        let mut since_restart = 0usize;
+        while !converged(sim) {
+            if evaluations >= max_evaluations {
+                return Ok(None);
+            }
+            // Secant line search on η(α) = Π'(u + αd)·d = −r(u + αd)·d: a probe at σ0, then
+            // the root of the line through the last two points, until the step is negligible.
+            let d = self.direction.clone();
+            let dd = dot(&d, &d);
+            if dd == 0.0 {
+                break;
+            }
+            let sigma0 = 1e-3;
+            let (mut alpha_a, mut eta_a) = (0.0, -dot(&r, &d));
+            self.shift(sim, &d, sigma0)?;
+            evaluations += 1;
+            let (mut alpha_b, mut eta_b) = (sigma0, -dot(&self.residual(sim), &d));
+            for _ in 0..8 {
+                if eta_b == eta_a {
+                    break;
+                }
+                let alpha = alpha_b - eta_b * (alpha_b - alpha_a) / (eta_b - eta_a);
+                let step = alpha - alpha_b;
+                self.shift(sim, &d, step)?;
+                evaluations += 1;
+                (alpha_a, eta_a) = (alpha_b, eta_b);
+                (alpha_b, eta_b) = (alpha, -dot(&self.residual(sim), &d));
+                // Converged when the last move is a millionth of the step taken.
+                if step.abs() <= 1e-6 * alpha.abs() {
+                    break;
+                }
+            }
+            r = self.residual(sim);
+            let delta_old = delta_new;
+            let delta_mid = dot(&r, &s);
+            s = self.precondition(&r);
+            delta_new = dot(&r, &s);
+            let beta = (delta_new - delta_mid) / delta_old;
+            since_restart += 1;
+            if since_restart >= n_free || beta <= 0.0 {
+                self.direction.clone_from(&s);
+                since_restart = 0;
+            } else {
+                self.direction
+                    .par_iter_mut()
+                    .zip(s.par_iter())
+                    .for_each(|(d, s)| *d = s + *d * beta);
+            }
+        }
+        Ok(Some(evaluations))
+    }
+
+    /// u += α d on the free components, then the forces there.
+    fn shift<M: Material<D>>(
+        &self,
+        sim: &mut Simulation<D, M>,
+        d: &[Vector<D>],
+        alpha: f64,
+    ) -> Result<(), StepError> {
+        let positions = &sim.body.positions;
+        let s = &mut sim.state;
+        (&mut s.u, &mut s.current)
+            .into_par_iter()
+            .zip(d.par_iter())
+            .zip(positions.par_iter())
+            .for_each(|(((u, y), d), x)| {
+                *u += d * alpha;
+                *y = x + *u;
+            });
+        sim.refresh_forces()?;
+        Ok(())
+    }
+
+    /// r = V (f + b) on the free components, 0 on the constrained ones.
+    fn residual<M: Material<D>>(&self, sim: &Simulation<D, M>) -> Vec<Vector<D>> {
+        let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
+        (0..s.u.len())
+            .into_par_iter()
+            .map(|i| {
+                Vector::<D>::from_fn(|k, _| {
+                    if mask[i][k] {
+                        0.0
+                    } else {
+                        vol[i] * (s.force[i][k] + s.body_force[i][k])
+                    }
+                })
+            })
+            .collect()
+    }
+
+    fn precondition(&self, r: &[Vector<D>]) -> Vec<Vector<D>> {
+        r.par_iter()
+            .zip(self.inverse_diagonal.par_iter())
+            .map(|(r, m)| r * *m)
+            .collect()
+    }
+}
+
+/// Σ a_i·b_i in fixed chunks, summed in order (the same for any thread count).
+fn dot<const D: usize>(a: &[Vector<D>], b: &[Vector<D>]) -> f64 {
+    let parts: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.dot(y)).sum())
+        .collect();
+    parts.iter().sum()
+}

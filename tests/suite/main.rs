@@ -1,0 +1,28 @@
+//! The verification suite, one test binary (each file a module): linking one binary instead
+//! of one per file keeps the release build of the tests, and CI, short. Run one file's tests
+//! with `cargo test --release --test suite patch::` (the module name), one test by its name.
+
+mod adaptive_dt;
+mod blocks;
+mod common;
+mod conformance;
+mod correspondence;
+mod crack_tracking;
+mod deck_errors;
+mod decks_good;
+mod determinism;
+mod dual_horizon;
+mod energy_conservation;
+mod examples_run;
+mod fracture_energy;
+mod fracture_rules;
+mod gmsh;
+mod grids;
+mod instability;
+mod kernels;
+mod kirsch;
+mod patch;
+mod quasi_static;
+mod separation_work;
+mod softening;
+mod wave_speed;
