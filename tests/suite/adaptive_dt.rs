@@ -2,10 +2,10 @@
 //! more than N_b^m bonds in one step, the adaptive run never commits such a step, and a
 //! rejected step leaves no trace (the retry is bitwise the step a run with the smaller dt takes).
 
-use peridyn::deck::build::{build_constitution, build_model, solver_settings, MaterialChoice};
+use super::common;
+use peridyn::deck::build::solver_settings;
 use peridyn::deck::LoadedDeck;
 use peridyn::material::Pmb;
-use peridyn::run::prepare;
 use peridyn::solver::adaptive_dt::most_broken_at_a_node;
 use peridyn::solver::{AdaptiveDt, Simulation};
 use std::path::Path;
@@ -70,13 +70,7 @@ min_dt = 1e-12
 }
 
 fn simulation(ld: &LoadedDeck) -> Simulation<2, Pmb> {
-    let model = build_model::<2>(ld).unwrap();
-    let c = build_constitution(ld, &model).unwrap();
-    let (material, rest) = c.split();
-    let MaterialChoice::Pmb(pmb) = material else {
-        panic!("a PMB deck")
-    };
-    prepare(ld, model, pmb, rest).unwrap().0
+    common::pmb_deck_simulation(ld).unwrap().0
 }
 
 #[test]

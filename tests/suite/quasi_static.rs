@@ -7,13 +7,13 @@ use super::common;
 
 use peridyn::bonds::PartialVolume;
 use peridyn::damage::Damage;
-use peridyn::deck::build::{build_constitution, build_model, solver_settings, MaterialChoice};
+use peridyn::deck::build::solver_settings;
 use peridyn::deck::LoadedDeck;
 use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
 use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Pmb};
 use peridyn::math::Vector;
-use peridyn::run::{drive, drive_quasi_static, prepare, RunError};
+use peridyn::run::{drive, drive_quasi_static, RunError};
 use peridyn::solver::{EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
 use std::path::Path;
 
@@ -69,13 +69,7 @@ time = {{ type = "ramp", duration = {ramp:e} }}
 
 /// Builds a PMB deck and runs it to the end (no observers).
 fn solve(ld: &LoadedDeck) -> Result<Simulation<2, Pmb>, RunError> {
-    let model = build_model::<2>(ld)?;
-    let c = build_constitution(ld, &model)?;
-    let (material, rest) = c.split();
-    let MaterialChoice::Pmb(pmb) = material else {
-        panic!("a PMB deck")
-    };
-    let (mut sim, report) = prepare(ld, model, pmb, rest)?;
+    let (mut sim, report) = common::pmb_deck_simulation(ld)?;
     match solver_settings(&ld.deck).quasi_static {
         Some(qs) => drive_quasi_static(&mut sim, qs, report.steps, &mut [])?,
         None => drive(&mut sim, report.steps, &mut [])?,
@@ -313,13 +307,7 @@ fn split_load_steps_trace_the_fracture_and_fix_the_peak_load() {
     let mut peaks = Vec::new();
     for load_steps in [10, 40] {
         let ld = notched_deck(load_steps);
-        let model = build_model::<2>(&ld).unwrap();
-        let c = build_constitution(&ld, &model).unwrap();
-        let (material, rest) = c.split();
-        let MaterialChoice::Pmb(pmb) = material else {
-            panic!("a PMB deck")
-        };
-        let (mut sim, _) = prepare(&ld, model, pmb, rest).unwrap();
+        let (mut sim, _) = common::pmb_deck_simulation(&ld).unwrap();
         let settings = solver_settings(&ld.deck).quasi_static.unwrap();
         let nominal = 1.0 / load_steps as f64;
         let mut solver = QuasiStatic::new(&sim, settings, nominal);

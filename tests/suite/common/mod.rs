@@ -4,6 +4,8 @@
 use peridyn::body::Body;
 use peridyn::bonds::{search::build_bonds, Bonds, PartialVolume};
 use peridyn::damage::Damage;
+use peridyn::deck::build::{build_constitution, build_model, MaterialChoice};
+use peridyn::deck::LoadedDeck;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::Loading;
@@ -12,6 +14,7 @@ use peridyn::material::{
     Correspondence, Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
 };
 use peridyn::math::Vector;
+use peridyn::run::{prepare, ModelReport, RunError};
 use peridyn::solver::Simulation;
 
 pub const THICKNESS: f64 = 1e-3;
@@ -151,4 +154,15 @@ pub fn displace<const D: usize, M: Material<D>>(
 /// The largest nodal force density.
 pub fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 {
     sim.state.force.iter().map(|f| f.norm()).fold(0.0, f64::max)
+}
+
+/// A 2D deck of one PMB material built into its simulation and report, not run.
+pub fn pmb_deck_simulation(ld: &LoadedDeck) -> Result<(Simulation<2, Pmb>, ModelReport), RunError> {
+    let model = build_model::<2>(ld)?;
+    let c = build_constitution(ld, &model)?;
+    let (material, rest) = c.split();
+    let MaterialChoice::Pmb(pmb) = material else {
+        panic!("a deck of one PMB material")
+    };
+    prepare(ld, model, pmb, rest)
 }
