@@ -65,26 +65,26 @@ impl<const D: usize> Ncg<D> {
             }
             // Secant line search on η(α) = Π'(u + αd)·d = −r(u + αd)·d: a probe at σ0, then
             // the root of the line through the last two points, until the step is negligible.
-            let d = self.direction.clone();
-            let dd = dot(&d, &d);
+            let d = &self.direction;
+            let dd = dot(d, d);
             if dd == 0.0 {
                 break;
             }
             let sigma0 = 1e-3;
-            let (mut alpha_a, mut eta_a) = (0.0, -dot(&r, &d));
-            self.shift(sim, &d, sigma0)?;
+            let (mut alpha_a, mut eta_a) = (0.0, -dot(&r, d));
+            self.shift(sim, d, sigma0)?;
             evaluations += 1;
-            let (mut alpha_b, mut eta_b) = (sigma0, -dot(&self.residual(sim), &d));
+            let (mut alpha_b, mut eta_b) = (sigma0, -dot(&self.residual(sim), d));
             for _ in 0..8 {
                 if eta_b == eta_a {
                     break;
                 }
                 let alpha = alpha_b - eta_b * (alpha_b - alpha_a) / (eta_b - eta_a);
                 let step = alpha - alpha_b;
-                self.shift(sim, &d, step)?;
+                self.shift(sim, d, step)?;
                 evaluations += 1;
                 (alpha_a, eta_a) = (alpha_b, eta_b);
-                (alpha_b, eta_b) = (alpha, -dot(&self.residual(sim), &d));
+                (alpha_b, eta_b) = (alpha, -dot(&self.residual(sim), d));
                 // Converged when the last move is a millionth of the step taken.
                 if step.abs() <= 1e-6 * alpha.abs() {
                     break;

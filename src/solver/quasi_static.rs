@@ -98,6 +98,8 @@ pub struct QuasiStatic<const D: usize> {
     velocity: Vec<Vector<D>>,
     /// F^{n−1}/λ of the previous iteration.
     previous_acceleration: Vec<Vector<D>>,
+    /// F^n/λ of this iteration (a buffer kept between iterations).
+    acceleration: Vec<Vector<D>>,
     /// The load increment in use (pseudo-time), halved when a step breaks too much.
     increment: f64,
     /// The nominal increment.
@@ -133,6 +135,7 @@ impl<const D: usize> QuasiStatic<D> {
             mass,
             velocity: vec![Vector::zeros(); n],
             previous_acceleration: vec![Vector::zeros(); n],
+            acceleration: vec![Vector::zeros(); n],
             increment,
             nominal: increment,
             frozen: vec![true; n],
@@ -256,7 +259,6 @@ impl<const D: usize> QuasiStatic<D> {
         }
         let (mut residual, ..) = self.residual(sim);
         let start_residual = residual;
-        let mask = sim.constrained_mask.clone();
         let mut n = 0u64;
         while residual > tol {
             if n >= self.settings.max_iterations {
@@ -264,27 +266,32 @@ impl<const D: usize> QuasiStatic<D> {
                 return Err(self.not_converged(sim, n, residual, node));
             }
             // Out-of-balance acceleration F/λ on the free components.
-            let s = &sim.state;
-            let accel: Vec<Vector<D>> = (0..s.u.len())
-                .into_par_iter()
+            let (s, mask, mass) = (&sim.state, &sim.constrained_mask, &self.mass);
+            self.acceleration
+                .par_iter_mut()
+                .enumerate()
                 .with_min_len(4096)
-                .map(|i| {
-                    Vector::<D>::from_fn(|k, _| {
-                        if mask[i][k] || self.mass[i] <= 0.0 {
+                .for_each(|(i, a)| {
+                    *a = Vector::<D>::from_fn(|k, _| {
+                        if mask[i][k] || mass[i] <= 0.0 {
                             0.0
                         } else {
-                            (s.force[i][k] + s.body_force[i][k]) / self.mass[i]
+                            (s.force[i][k] + s.body_force[i][k]) / mass[i]
                         }
                     })
-                })
-                .collect();
-            let c = if n == 0 {
+                });
+            let first = n == 0;
+            // The first iteration starts from rest: v^{½} = F^0/(2λ).
+            let c = if first {
                 0.0
             } else {
-                self.damping(&s.u, &accel)
+                self.damping(&s.u, &self.acceleration)
             };
-            let first = n == 0;
-            let (velocity, previous) = (&mut self.velocity, &mut self.previous_acceleration);
+            let (velocity, previous, accel) = (
+                &mut self.velocity,
+                &mut self.previous_acceleration,
+                &self.acceleration,
+            );
             let positions = &sim.body.positions;
             let s = &mut sim.state;
             (&mut s.u, &mut s.current, velocity, previous)
@@ -310,9 +317,6 @@ impl<const D: usize> QuasiStatic<D> {
                 let (_, node, _) = self.residual(sim);
                 return Err(self.not_converged(sim, n, residual, node));
             }
-        }
-        for v in self.velocity.iter_mut() {
-            *v = Vector::zeros();
         }
         Ok(n)
     }
