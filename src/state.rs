@@ -42,6 +42,10 @@ pub struct State<const D: usize> {
     pub external_work: f64,
     /// Energy removed by viscous damping since the start (J).
     pub dissipated_viscous: f64,
+    /// Strain energy released by damage since the start (J): at every evaluation that breaks
+    /// or softens bonds, the strain energy of the current configuration before the damage
+    /// minus after it (zero unless the force engine tracks dissipation).
+    pub dissipated_damage: f64,
     /// The last step's time step (s), or its load increment in a quasi-static run.
     pub dt: f64,
     /// Force evaluations of the last step: 1 for an explicit step, the relaxation
@@ -67,6 +71,7 @@ impl<const D: usize> State<D> {
             broken: 0,
             external_work: 0.0,
             dissipated_viscous: 0.0,
+            dissipated_damage: 0.0,
             dt: 0.0,
             iterations: 0,
         }
