@@ -236,6 +236,16 @@ impl Damage {
         }
     }
 
+    /// Whether bonds can carry a fraction of their force (softening): the history then
+    /// sets the factors μ, not the status alone.
+    pub fn partial(&self) -> bool {
+        match self {
+            Damage::CriticalStretch(_) | Damage::CriticalEnergy(_) => false,
+            Damage::Softening(_) => true,
+            Damage::Mixed(d) => d.softens(),
+        }
+    }
+
     /// Bytes per directed bond this law stores (for a central material or not).
     pub fn bytes_per_bond(&self, central: bool) -> usize {
         8 * self.history_words(central)

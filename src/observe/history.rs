@@ -27,6 +27,8 @@ impl History {
             "external_work",
             "viscous_dissipation",
             "energy_balance",
+            "damage_dissipation",
+            "energy_residual",
             "broken_bonds",
             "dt",
             "iterations",
@@ -69,9 +71,15 @@ impl<const D: usize> Observer<D> for History {
     fn observe(&mut self, view: &StepView<D>) -> std::io::Result<()> {
         let state = view.state;
         let (ek, es) = (view.kinetic_energy(), view.strain_energy());
-        let (w, dv) = (state.external_work, state.dissipated_viscous);
+        let (w, dv, dd) = (
+            state.external_work,
+            state.dissipated_viscous,
+            state.dissipated_damage,
+        );
         // Energy balance: E_kin + E_strain + D_viscous − W_ext, constant (≈ 0) for an elastic run;
-        // its growth is the energy dissipated by breaking bonds.
+        // its growth is the energy dissipated by damage, which the force engine books as
+        // D_damage; the residual W_ext − (E_kin + E_strain + D_viscous + D_damage) is what is
+        // left unexplained (time-integration error).
         let mut row = vec![
             state.time,
             state.step as f64,
@@ -80,6 +88,8 @@ impl<const D: usize> Observer<D> for History {
             w,
             dv,
             ek + es + dv - w,
+            dd,
+            w - (ek + es + dv + dd),
             (state.broken / 2) as f64,
             state.dt,
             state.iterations as f64,

@@ -9,6 +9,7 @@
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
+use super::dissipation::DissipationTracker;
 use crate::damage::critical_stretch::UniformCriticalStretch;
 use crate::damage::mixed::MixedLaws;
 use crate::damage::{
@@ -37,6 +38,8 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     neighbors_in_bounds: bool,
     points: Vec<M::Point>,
     chunks: Vec<Range<usize>>,
+    /// Books the strain energy each evaluation's damage releases (`state.dissipated_damage`).
+    dissipation: DissipationTracker,
 }
 
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
@@ -205,6 +208,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .map(|s| s..(s + NODE_CHUNK).min(n))
             .collect();
         let neighbors_in_bounds = bonds.neighbors.iter().all(|&j| (j as usize) < n);
+        let damage_is_partial = damage.partial();
         Ok(ForceEngine {
             material,
             damage,
@@ -213,6 +217,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             neighbors_in_bounds,
             points: vec![M::Point::default(); n],
             chunks,
+            dissipation: DissipationTracker::new(damage_is_partial),
         })
     }
 
@@ -222,10 +227,31 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         &self.points
     }
 
-    /// Evaluates damage and internal force densities into `state.force`; returns the number
-    /// of directed bond halves broken by this evaluation (each bond of a law shared by both
-    /// ends counts twice, once per entry).
+    /// Evaluates damage and internal force densities into `state.force`, and books the strain
+    /// energy the damage released into `state.dissipated_damage`; returns the number of
+    /// directed bond halves broken by this evaluation (each bond of a law shared by both ends
+    /// counts twice, once per entry).
     pub fn compute(&mut self, body: &Body<D>, bonds: &Bonds, state: &mut State<D>) -> u64 {
+        let mut tracker = std::mem::take(&mut self.dissipation);
+        tracker.remember(state);
+        let broke = self.evaluate(body, bonds, state);
+        let hw = self.damage.history_words(M::CENTRAL);
+        state.dissipated_damage += tracker.released(
+            &self.chunks,
+            bonds,
+            &body.volumes,
+            state,
+            hw,
+            broke > 0,
+            |i, j, h, st| self.damage.factors(i, j, h, st),
+            |i, record| self.node_energy_with(body, bonds, &state.current, record, i),
+        );
+        self.dissipation = tracker;
+        broke
+    }
+
+    /// `compute` without the dissipation booking.
+    fn evaluate(&mut self, body: &Body<D>, bonds: &Bonds, state: &mut State<D>) -> u64 {
         // Dispatch once on the damage law and the weight source: on uniform grids φ depends
         // on |ξ| only and no per-neighbour node data is read.
         let damage = std::mem::replace(&mut self.damage, Damage::none());
@@ -539,13 +565,44 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .into_par_iter()
             .map(|i| {
                 let pi = &self.points[i];
-                // A fold from +0.0 (`sum` would start from −0.0).
-                let sum = self
-                    .intact_own_halves(body, bonds, state, i)
-                    .fold(0.0, |acc, g| acc + self.material.bond_energy(i, &g, pi));
-                self.material.point_energy(i, pi, sum)
+                let halves = self.intact_own_halves(body, bonds, state, i);
+                self.energy_from(i, pi, halves)
             })
             .collect()
+    }
+
+    /// W_i from node i's point state and its intact own halves.
+    fn energy_from(&self, i: usize, pi: &M::Point, halves: impl Iterator<Item = BondGeom<D>>) -> f64 {
+        // A fold from +0.0 (`sum` would start from −0.0).
+        let sum = halves.fold(0.0, |acc, g| acc + self.material.bond_energy(i, &g, pi));
+        self.material.point_energy(i, pi, sum)
+    }
+
+    /// W_i of node i at the current positions with the given bond status and history
+    /// (whole-body arrays), its point state recomputed from them: the dissipation tracker
+    /// compares a node's energy before and after an evaluation damaged its bonds.
+    pub(crate) fn node_energy_with(
+        &self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        current: &[Vector<D>],
+        damage_record: (&[u8], &[f64]),
+        i: usize,
+    ) -> f64 {
+        let point = if M::NEEDS_PREPASS {
+            // As the pre-pass: every bond that still carries force, with its factors.
+            let mut acc = M::Point::default();
+            for g in self.halves(body, bonds, current, damage_record, i, BROKEN) {
+                if g.len > 0.0 {
+                    self.material.accumulate(i, &mut acc, &g);
+                }
+            }
+            self.material.finish_point(i, acc)
+        } else {
+            M::Point::default()
+        };
+        let own = self.halves(body, bonds, current, damage_record, i, OWN_BROKEN);
+        self.energy_from(i, &point, own)
     }
 
     /// The bonds of node i whose own half is not broken, with their geometry now.
@@ -556,20 +613,35 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         state: &'a State<D>,
         i: usize,
     ) -> impl Iterator<Item = BondGeom<D>> + 'a {
+        let record = (&state.status[..], &state.history[..]);
+        self.halves(body, bonds, &state.current, record, i, OWN_BROKEN)
+    }
+
+    /// The bond entries of node i without any of the status bits `skip`, with their geometry
+    /// at `current` and their factors from `status` and `history`.
+    fn halves<'a>(
+        &'a self,
+        body: &'a Body<D>,
+        bonds: &'a Bonds,
+        current: &'a [Vector<D>],
+        (status, history): (&'a [u8], &'a [f64]),
+        i: usize,
+        skip: u8,
+    ) -> impl Iterator<Item = BondGeom<D>> + 'a {
         let hw = self.damage.history_words(M::CENTRAL);
         bonds
             .family(i)
-            .filter(move |&b| state.status[b] & OWN_BROKEN == 0)
+            .filter(move |&b| status[b] & skip == 0)
             .map(move |b| {
                 let j = bonds.neighbors[b] as usize;
-                let y = state.current[j] - state.current[i];
+                let y = current[j] - current[i];
                 let l = bonds.ref_lengths[b];
                 let (phi_ij, phi_ji) = self.quad.phi_pair(b, i, j, l);
-                let (mu_ij, mu_ji) = if state.status[b] == INTACT && hw == 0 {
+                let (mu_ij, mu_ji) = if status[b] == INTACT && hw == 0 {
                     (1.0, 1.0)
                 } else {
                     self.damage
-                        .factors(i, j, &state.history[b * hw..(b + 1) * hw], state.status[b])
+                        .factors(i, j, &history[b * hw..(b + 1) * hw], status[b])
                 };
                 BondGeom {
                     ref_len: l,

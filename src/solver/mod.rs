@@ -2,6 +2,7 @@
 //! step controller) and the quasi-static load-step loop (adaptive dynamic relaxation).
 
 pub mod adaptive_dt;
+pub mod dissipation;
 pub mod forces;
 pub mod ncg;
 pub mod quasi_static;
