@@ -600,7 +600,12 @@ fn crack_tips<const D: usize, M: Material<D>>(
         sim.densities[0],
         setting,
     );
-    CrackTips::new(out, tracker, tip.interval, tip.window, rayleigh)
+    let tips = CrackTips::new(out, tracker, tip.interval, tip.window, rayleigh);
+    if D == 2 {
+        tips.with_dissipation_rate(sim.body.thickness, deck.material.fracture_energy())
+    } else {
+        tips
+    }
 }
 
 /// The step loop: step, check for blow-up, offer the committed step to observers.

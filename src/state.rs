@@ -42,9 +42,10 @@ pub struct State<const D: usize> {
     pub external_work: f64,
     /// Energy removed by viscous damping since the start (J).
     pub dissipated_viscous: f64,
-    /// Strain energy released by damage since the start (J): at every evaluation that breaks
-    /// or softens bonds, the strain energy of the current configuration before the damage
-    /// minus after it (zero unless the force engine tracks dissipation).
+    /// Strain energy released by breaking bonds since the start (J): at every evaluation that
+    /// breaks bonds, the strain energy of the current configuration before the breaks minus
+    /// after them (`solver::dissipation`; softening adds its share from the history, see
+    /// `ForceEngine::dissipated_energy`).
     pub dissipated_damage: f64,
     /// The last step's time step (s), or its load increment in a quasi-static run.
     pub dt: f64,

@@ -8,6 +8,7 @@
 //!   with (seed 002).
 //! - `crack_path`: the crack as a 2D polyline and its Pearson correlation with a reference
 //!   path (seed 003 Eq. 17).
+//! - `dissipation_rate`: Γ = dE_diss/dā of a running crack (seed 002 Eq. 13).
 //! - `branching`: connected damaged regions and the fork of a branching 2D crack, with the
 //!   branch angles.
 //!
@@ -18,6 +19,7 @@ pub mod branching;
 pub mod crack_path;
 pub mod crack_speed;
 pub mod crack_tip;
+pub mod dissipation_rate;
 
 pub use branching::{damaged_components, find_forks, Fork, ForkBranch};
 pub use crack_path::{compare_paths, crack_path, pearson, PathComparison};
@@ -28,3 +30,4 @@ pub use crack_tip::{
     branch_history, crack_front, find_tip, Branch, CrackFront, SearchBox, Tip, TipSample,
     TipTracker,
 };
+pub use dissipation_rate::{dissipation_rate, RateSample};

@@ -30,6 +30,14 @@ impl MixedDamage {
         &self.laws[self.law_of[node] as usize]
     }
 
+    /// Node i's softening parameters, if its block softens.
+    pub fn softening_at(&self, node: usize) -> Option<super::softening::UniformSoftening> {
+        match self.law(node) {
+            BlockLaw::Softening(s) => Some(s.at(node)),
+            _ => None,
+        }
+    }
+
     /// A block softens: bonds keep their largest stretch.
     pub fn softens(&self) -> bool {
         self.laws

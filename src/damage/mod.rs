@@ -246,6 +246,16 @@ impl Damage {
         }
     }
 
+    /// Node i's softening parameters, if its half follows a softening law (its history's
+    /// first word is then the bond's largest stretch).
+    pub fn softening_at(&self, node: usize) -> Option<softening::UniformSoftening> {
+        match self {
+            Damage::Softening(d) => Some(d.at(node)),
+            Damage::Mixed(d) => d.softening_at(node),
+            _ => None,
+        }
+    }
+
     /// Bytes per directed bond this law stores (for a central material or not).
     pub fn bytes_per_bond(&self, central: bool) -> usize {
         8 * self.history_words(central)

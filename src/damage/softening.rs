@@ -155,7 +155,7 @@ impl Softening {
 
     /// The parameters of node i's half.
     #[inline(always)]
-    fn at(&self, node: usize) -> UniformSoftening {
+    pub fn at(&self, node: usize) -> UniformSoftening {
         UniformSoftening {
             shape: self.shape,
             s1: self.s1.at(node),
@@ -207,6 +207,36 @@ impl UniformSoftening {
                 }
             }
         }
+    }
+
+    /// G(s) = ∫₀ˢ g: the work per unit c done on the bond up to stretch s, along the envelope.
+    pub fn work(&self, s: f64) -> f64 {
+        let (s1, s2, sc) = (self.s1, self.s2, self.sc);
+        let s = s.min(sc);
+        if s <= s1 {
+            return 0.5 * s * s;
+        }
+        // The area under a line from (a, g(a)) to (s, g(s)).
+        let trapezoid = |a: f64| 0.5 * (self.envelope(a) + self.envelope(s)) * (s - a);
+        match self.shape {
+            Shape::Bilinear => 0.5 * s1 * s1 + trapezoid(s1),
+            Shape::Trilinear { .. } if s <= s2 => 0.5 * s1 * s1 + trapezoid(s1),
+            Shape::Trilinear { beta } => {
+                0.5 * s1 * s1 + 0.5 * (1.0 + beta) * s1 * (s2 - s1) + trapezoid(s2)
+            }
+        }
+    }
+
+    /// The energy a bond loaded to s_max has dissipated, over the energy ½ c s² of an intact
+    /// bond at s = min(s_max, sc): the work G(s) less what unloading along the secant gives
+    /// back, ½ g(s) s (seed 001 §4.1; the secant is the unloading path). 0 before the peak;
+    /// 2G(sc)/sc² once broken, the whole area under the envelope.
+    pub fn dissipated_fraction(&self, s_max: f64) -> f64 {
+        let s = s_max.min(self.sc);
+        if s <= self.s1 {
+            return 0.0;
+        }
+        (2.0 * self.work(s) - self.envelope(s) * s) / (s * s)
     }
 
     /// μ = g(s_max)/s_max beyond the peak (the secant to the origin), 1 before it.
@@ -374,6 +404,33 @@ mod tests {
                 assert!((b / bound - 1.0).abs() < 1e-9)
             }
             other => panic!("expected the Eq. 17 refusal, got {other:?}"),
+        }
+    }
+
+    /// G(s) is the area under the envelope (midpoint rule), and a broken bond has dissipated
+    /// all of it.
+    #[test]
+    fn work_is_the_area_under_the_envelope() {
+        let bi = SofteningParameters::bilinear(0.002, 0.02).unwrap();
+        let tri = SofteningParameters::trilinear(bi, 0.25, 28.0 / 3.0).unwrap();
+        for (shape, p) in [
+            (Shape::Bilinear, bi),
+            (Shape::Trilinear { beta: 0.25 }, tri),
+        ] {
+            let law = Softening::uniform(shape, p).uniform_form().unwrap();
+            for frac in [0.05, 0.1, 0.3, 0.5, 0.8, 1.0, 1.2] {
+                let s = frac * p.sc;
+                let n = 100_000;
+                let h = s.min(p.sc) / n as f64;
+                let area: f64 = (0..n).map(|k| law.envelope((k as f64 + 0.5) * h) * h).sum();
+                assert!(
+                    (law.work(s) / area - 1.0).abs() < 1e-6,
+                    "{shape:?} at {frac}"
+                );
+            }
+            assert_eq!(law.dissipated_fraction(0.9 * p.s1), 0.0);
+            let broken = law.dissipated_fraction(2.0 * p.sc);
+            assert!((broken * p.sc * p.sc / 2.0 / (0.5 * bi.s1 * bi.sc) - 1.0).abs() < 1e-12);
         }
     }
 

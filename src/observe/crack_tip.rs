@@ -2,14 +2,15 @@
 //! each branch is found on the damage field (`analysis::TipTracker`, seed 000 App. 2), and at
 //! the end `crack_tip.csv` (tip positions) and `crack_speed.csv` (speeds from a forward
 //! difference over `window` samples, `analysis::crack_speed`, against the Rayleigh speed) are
-//! written atomically. Tips are taken on the reference positions: damage is a field of the
+//! written atomically; in 2D also `dissipation_rate.csv`, Γ = dE_diss/dā of the first branch
+//! over the same window (`analysis::dissipation_rate`), against G0 when the deck gives it. Tips are taken on the reference positions: damage is a field of the
 //! material points, and a tip that only moves when the crack does gives speeds free of the
 //! body's rigid motion. The tracker is a sequential scan, so the files are the same for any
 //! number of threads.
 
 use super::csv::{push_number, quote};
 use super::observer::{Every, Observer, StepView};
-use crate::analysis::{branch_history, crack_speed, TipSample, TipTracker};
+use crate::analysis::{branch_history, crack_speed, dissipation_rate, TipSample, TipTracker};
 use crate::atomic_file::write_atomic;
 use crate::math::Vector;
 use std::cell::RefCell;
@@ -67,9 +68,16 @@ pub struct CrackTips<const D: usize> {
     rayleigh: f64,
     tip_path: PathBuf,
     speed_path: PathBuf,
+    rate_path: PathBuf,
+    /// The crack's width for its area ā = (a − a0)·width (the thickness; None in 3D, where
+    /// no rate is written) and G0 (J/m²) to compare Γ with.
+    width: Option<f64>,
+    g0: Option<f64>,
     steps: Vec<u64>,
     times: Vec<f64>,
     samples: Vec<Vec<Option<TipSample<D>>>>,
+    /// Energy dissipated by damage at each sample (J).
+    dissipated: Vec<f64>,
     report: Rc<RefCell<Option<CrackReport>>>,
 }
 
@@ -90,11 +98,53 @@ impl<const D: usize> CrackTips<D> {
             rayleigh,
             tip_path: out_dir.join("crack_tip.csv"),
             speed_path: out_dir.join("crack_speed.csv"),
+            rate_path: out_dir.join("dissipation_rate.csv"),
+            width: None,
+            g0: None,
             steps: Vec::new(),
             times: Vec::new(),
             samples: Vec::new(),
+            dissipated: Vec::new(),
             report: Rc::new(RefCell::new(None)),
         }
+    }
+
+    /// Also writes `dissipation_rate.csv` for a crack `width` wide (2D: the thickness),
+    /// normalised by `g0` when given.
+    pub fn with_dissipation_rate(mut self, width: f64, g0: Option<f64>) -> Self {
+        self.width = Some(width);
+        self.g0 = g0;
+        self
+    }
+
+    /// `dissipation_rate.csv`: Γ of the first branch against its advance a − a0 from where it
+    /// was first seen (seed 002 counts one crack).
+    fn render_rates(&self, width: f64) -> String {
+        let mut s = String::from("time,crack_length,dissipation_rate,rate_over_g0\n");
+        let (mut times, mut lengths, mut energies) = (Vec::new(), Vec::new(), Vec::new());
+        for ((t, row), e) in self.times.iter().zip(&self.samples).zip(&self.dissipated) {
+            if let Some(Some(sample)) = row.first() {
+                times.push(*t);
+                lengths.push(sample.tip.projection);
+                energies.push(*e);
+            }
+        }
+        let a0 = lengths.first().copied().unwrap_or(0.0);
+        lengths.iter_mut().for_each(|a| *a -= a0);
+        for r in dissipation_rate(&times, &lengths, &energies, self.window, width) {
+            for (k, v) in [r.time, r.crack_length, r.rate].into_iter().enumerate() {
+                if k > 0 {
+                    s.push(',');
+                }
+                push_number(&mut s, v);
+            }
+            s.push(',');
+            if let Some(g0) = self.g0 {
+                push_number(&mut s, r.rate / g0);
+            }
+            s.push('\n');
+        }
+        s
     }
 
     /// Where `finish` leaves the run's crack report (for the run summary).
@@ -194,6 +244,7 @@ impl<const D: usize> Observer<D> for CrackTips<D> {
         self.times.push(t);
         self.steps.push(view.state.step);
         self.samples.push(sample);
+        self.dissipated.push(view.damage_dissipation());
         Ok(())
     }
 
@@ -201,6 +252,9 @@ impl<const D: usize> Observer<D> for CrackTips<D> {
         write_atomic(&self.tip_path, self.render_tips().as_bytes())?;
         let (speeds, report) = self.render_speeds();
         write_atomic(&self.speed_path, speeds.as_bytes())?;
+        if let Some(width) = self.width {
+            write_atomic(&self.rate_path, self.render_rates(width).as_bytes())?;
+        }
         *self.report.borrow_mut() = Some(report);
         Ok(())
     }

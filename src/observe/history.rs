@@ -74,7 +74,7 @@ impl<const D: usize> Observer<D> for History {
         let (w, dv, dd) = (
             state.external_work,
             state.dissipated_viscous,
-            state.dissipated_damage,
+            view.damage_dissipation(),
         );
         // Energy balance: E_kin + E_strain + D_viscous − W_ext, constant (≈ 0) for an elastic run;
         // its growth is the energy dissipated by damage, which the force engine books as

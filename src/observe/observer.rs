@@ -38,6 +38,10 @@ impl<'a, const D: usize> StepView<'a, D> {
     pub fn energy_density(&self) -> &[f64] {
         self.energy.get_or_init(|| self.fields.energy_density())
     }
+    /// Energy dissipated by damage since the start (J).
+    pub fn damage_dissipation(&self) -> f64 {
+        self.fields.damage_dissipation()
+    }
     /// Total strain energy (J).
     pub fn strain_energy(&self) -> f64 {
         self.energy_density()

@@ -1,6 +1,7 @@
 //! PNG plots of a run's `history.csv`, written at the end of every run and by `peridyn plot`:
 //! the energies, a load–displacement curve per loaded node set, the openings, the broken
-//! bonds and the time step (or load increment).
+//! bonds and the time step (or load increment); with them the crack files' plots
+//! (`crack_plots`).
 
 use std::path::{Path, PathBuf};
 
@@ -191,5 +192,6 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
             )?;
         }
     }
+    written.extend(super::crack_plots::write_crack_plots(run_dir, &dir)?);
     Ok(written)
 }

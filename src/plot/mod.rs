@@ -1,3 +1,4 @@
+pub mod crack_plots;
 pub mod curve;
 pub mod damage_map;
 mod font;

@@ -6,10 +6,10 @@
 //! (i→j in i's row, j→i in j's) are updated by their own rows from the same numbers, so they
 //! always agree.
 
+use super::dissipation::DissipationTracker;
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
-use super::dissipation::DissipationTracker;
 use crate::damage::critical_stretch::UniformCriticalStretch;
 use crate::damage::mixed::MixedLaws;
 use crate::damage::{
@@ -208,7 +208,6 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .map(|s| s..(s + NODE_CHUNK).min(n))
             .collect();
         let neighbors_in_bounds = bonds.neighbors.iter().all(|&j| (j as usize) < n);
-        let damage_is_partial = damage.partial();
         Ok(ForceEngine {
             material,
             damage,
@@ -217,7 +216,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             neighbors_in_bounds,
             points: vec![M::Point::default(); n],
             chunks,
-            dissipation: DissipationTracker::new(damage_is_partial),
+            dissipation: DissipationTracker::default(),
         })
     }
 
@@ -232,20 +231,47 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     /// directed bond halves broken by this evaluation (each bond of a law shared by both ends
     /// counts twice, once per entry).
     pub fn compute(&mut self, body: &Body<D>, bonds: &Bonds, state: &mut State<D>) -> u64 {
+        self.compute_in_step(body, bonds, state, 0.0)
+    }
+
+    /// `compute` inside a time step whose drift moved the nodes by dt·v: the release is booked
+    /// at the mid-step positions y − `half_dt`·v. A bond breaks at a stretch past its limit,
+    /// and the velocity-Verlet kick gives back only the mean of its force before (intact) and
+    /// after (broken) over the step; the energy at mid-step is what the step's balance loses
+    /// (to second order in the step's stretch increment), the energy at the end would count
+    /// the overshoot past the limit, which no kick delivered.
+    pub fn compute_in_step(
+        &mut self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        state: &mut State<D>,
+        half_dt: f64,
+    ) -> u64 {
         let mut tracker = std::mem::take(&mut self.dissipation);
         tracker.remember(state);
         let broke = self.evaluate(body, bonds, state);
-        let hw = self.damage.history_words(M::CENTRAL);
-        state.dissipated_damage += tracker.released(
-            &self.chunks,
-            bonds,
-            &body.volumes,
-            state,
-            hw,
-            broke > 0,
-            |i, j, h, st| self.damage.factors(i, j, h, st),
-            |i, record| self.node_energy_with(body, bonds, &state.current, record, i),
-        );
+        if broke > 0 {
+            let positions: Vec<Vector<D>> = if half_dt == 0.0 {
+                Vec::new()
+            } else {
+                state
+                    .current
+                    .par_iter()
+                    .zip(&state.v)
+                    .map(|(y, v)| y - v * half_dt)
+                    .collect()
+            };
+            let at = if half_dt == 0.0 {
+                &state.current
+            } else {
+                &positions
+            };
+            state.dissipated_damage +=
+                tracker.released(&self.chunks, bonds, &body.volumes, state, |i, status| {
+                    let record = (status, &state.history[..]);
+                    self.node_energy_with(body, bonds, at, record, i)
+                });
+        }
         self.dissipation = tracker;
         broke
     }
@@ -572,7 +598,12 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     }
 
     /// W_i from node i's point state and its intact own halves.
-    fn energy_from(&self, i: usize, pi: &M::Point, halves: impl Iterator<Item = BondGeom<D>>) -> f64 {
+    fn energy_from(
+        &self,
+        i: usize,
+        pi: &M::Point,
+        halves: impl Iterator<Item = BondGeom<D>>,
+    ) -> f64 {
         // A fold from +0.0 (`sum` would start from −0.0).
         let sum = halves.fold(0.0, |acc, g| acc + self.material.bond_energy(i, &g, pi));
         self.material.point_energy(i, pi, sum)
@@ -680,6 +711,43 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             }
         }
         sigma
+    }
+
+    /// The energy damage has dissipated since the start (J): what the evaluations booked
+    /// (`state.dissipated_damage`) plus, for softening halves, c·(G(s) − ½ g(s) s) at their
+    /// largest stretch s (`UniformSoftening::dissipated_fraction` of the intact bond energy
+    /// there), summed per node chunk in a fixed order.
+    pub fn dissipated_energy(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>) -> f64 {
+        if !self.damage.partial() {
+            return state.dissipated_damage;
+        }
+        let hw = self.damage.history_words(M::CENTRAL);
+        let point = M::Point::default();
+        let per_chunk: Vec<f64> = self
+            .chunks
+            .par_iter()
+            .map(|nodes| {
+                nodes.clone().fold(0.0, |acc, i| {
+                    let Some(law) = self.damage.softening_at(i) else {
+                        return acc;
+                    };
+                    let own: f64 = bonds
+                        .family(i)
+                        .filter(|&b| state.history[b * hw] > law.s1)
+                        .map(|b| {
+                            let s = state.history[b * hw].min(law.sc);
+                            let j = bonds.neighbors[b] as usize;
+                            let l = bonds.ref_lengths[b];
+                            let phi = self.quad.phi_pair(b, i, j, l).0;
+                            let g = BondGeom::<D>::intact(l, l * (1.0 + s), phi, body.volumes[j]);
+                            self.material.bond_energy(i, &g, &point) * law.dissipated_fraction(s)
+                        })
+                        .sum();
+                    acc + own * body.volumes[i]
+                })
+            })
+            .collect();
+        state.dissipated_damage + per_chunk.iter().sum::<f64>()
     }
 
     /// Total strain energy Σ W_i V_i (J).

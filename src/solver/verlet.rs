@@ -186,9 +186,9 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         self.counters.integrate += started.elapsed();
 
         let started = Instant::now();
-        let broken = self
-            .engine
-            .compute(&self.body, &self.bonds, &mut self.state);
+        let broken =
+            self.engine
+                .compute_in_step(&self.body, &self.bonds, &mut self.state, 0.5 * dt);
         self.loading.body_forces(&mut self.state, t1);
         self.counters.force += started.elapsed();
 
@@ -299,6 +299,8 @@ pub trait Fields<const D: usize> {
     fn energy_density(&self) -> Vec<f64>;
     /// Kinetic energy (J).
     fn kinetic_energy(&self) -> f64;
+    /// Energy dissipated by damage since the start (J).
+    fn damage_dissipation(&self) -> f64;
     /// External force (N) that holds a node set.
     fn reaction(&self, nodes: &[u32]) -> Vector<D>;
 }
@@ -316,6 +318,10 @@ impl<const D: usize, M: Material<D>> Fields<D> for Simulation<D, M> {
     fn energy_density(&self) -> Vec<f64> {
         self.engine
             .energy_density(&self.body, &self.bonds, &self.state)
+    }
+    fn damage_dissipation(&self) -> f64 {
+        self.engine
+            .dissipated_energy(&self.body, &self.bonds, &self.state)
     }
     fn kinetic_energy(&self) -> f64 {
         Simulation::kinetic_energy(self)

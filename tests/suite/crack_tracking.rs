@@ -9,14 +9,28 @@ use peridyn::run::{run, RunOptions, RunSummary};
 use std::path::{Path, PathBuf};
 
 /// Spacing Δx (m) and notch tip x (m) of the plate.
-const DX: f64 = 0.1e-3;
-const NOTCH_TIP: f64 = 2e-3;
+pub(super) const DX: f64 = 0.1e-3;
+pub(super) const NOTCH_TIP: f64 = 2e-3;
 const NOTCH_Y: f64 = 2e-3;
 
 /// An 8 mm × 4 mm × 0.5 mm PMB plate, Δx = 0.1 mm, δ = 3.5 Δx, a 2 mm edge notch at
 /// mid-height, grips (3 rows top and bottom) pulled apart at 1 m/s each: the crack starts at
 /// about 15 µs and reaches x ≈ 7 mm by 22 µs (≈ 350 steps). `analysis` is appended verbatim.
 fn plate(analysis: &str) -> LoadedDeck {
+    plate_of(PMMA_PMB, analysis)
+}
+
+/// The PMMA of the quickstart, PMB with critical stretch from G0 = 300 J/m².
+pub(super) const PMMA_PMB: &str = r#"
+[material]
+type = "pmb"
+density = 1180.0
+youngs_modulus = 3.09e9
+fracture_energy = 300.0
+"#;
+
+/// `plate` with the `[material]` table given.
+pub(super) fn plate_of(material: &str, analysis: &str) -> LoadedDeck {
     let text = format!(
         r#"
 version = 2
@@ -32,11 +46,7 @@ spacing = {DX}
 horizon_ratio = 3.5
 partial_volume = "hhb"
 
-[material]
-type = "pmb"
-density = 1180.0
-youngs_modulus = 3.09e9
-fracture_energy = 300.0
+{material}
 
 [[node_sets]]
 name = "top"
@@ -80,20 +90,20 @@ png = false
     LoadedDeck::from_str(&text, Path::new("crack_tracking.toml")).unwrap_or_else(|e| panic!("{e}"))
 }
 
-const TRACK: &str = r#"
+pub(super) const TRACK: &str = r#"
 [analysis.crack_tip]
 direction = [1.0, 0.0]
 interval = 5
 window = 5
 "#;
 
-fn out_dir(tag: &str) -> PathBuf {
+pub(super) fn out_dir(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("peridyn-crack-{tag}-{}", std::process::id()));
     std::fs::remove_dir_all(&dir).ok();
     dir
 }
 
-fn run_in(ld: &LoadedDeck, out: &Path, threads: usize) -> RunSummary {
+pub(super) fn run_in(ld: &LoadedDeck, out: &Path, threads: usize) -> RunSummary {
     run(
         ld,
         &RunOptions {
@@ -106,7 +116,7 @@ fn run_in(ld: &LoadedDeck, out: &Path, threads: usize) -> RunSummary {
 }
 
 /// A CSV as its header and rows of cells (text; an empty cell is an empty string).
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+pub(super) fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines();
     let header = lines
@@ -121,7 +131,7 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     (header, rows)
 }
 
-fn num(cell: &str) -> f64 {
+pub(super) fn num(cell: &str) -> f64 {
     cell.parse()
         .unwrap_or_else(|e| panic!("{cell:?} is not a number: {e}"))
 }
@@ -323,11 +333,7 @@ shape = {{ type = "box", min = [0.0, 0.0, 0.0], max = [0.003, 0.002, 0.0006] }}
 spacing = {DX}
 horizon_ratio = 3.0
 
-[material]
-type = "pmb"
-density = 1180.0
-youngs_modulus = 3.09e9
-fracture_energy = 300.0
+{PMMA_PMB}
 
 [[node_sets]]
 name = "top"

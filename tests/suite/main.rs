@@ -12,6 +12,7 @@ mod deck_errors;
 mod decks_good;
 mod determinism;
 mod dual_horizon;
+mod energy_accounting;
 mod energy_conservation;
 mod examples_run;
 mod fracture_energy;
