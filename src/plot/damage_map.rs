@@ -58,6 +58,8 @@ pub struct MapStyle<'a> {
     /// Close the slivers an unstructured mesh leaves between node squares (field maps); off
     /// where the gaps are the point (a grid's node picture).
     pub fill_gaps: bool,
+    /// Names of the horizontal and vertical axes ("x", "y"; other pairs for 3D slices).
+    pub axis_names: [&'a str; 2],
 }
 
 /// An RGB8 image in memory plus where the data area lies in it.
@@ -323,8 +325,8 @@ pub(crate) fn render_scalar_map(
             .disable_mesh()
             .x_labels((pw / 90).clamp(2, 12) as usize)
             .y_labels((ph / 60).clamp(2, 12) as usize)
-            .x_desc("x (mm)")
-            .y_desc("y (mm)")
+            .x_desc(format!("{} (mm)", style.axis_names[0]))
+            .y_desc(format!("{} (mm)", style.axis_names[1]))
             .label_style(tick_font.clone())
             .axis_desc_style(label_font.clone())
             .draw()
@@ -558,6 +560,7 @@ mod tests {
         MapStyle {
             outline: &[],
             fill_gaps: true,
+            axis_names: ["x", "y"],
             title: "Damage, step 1000",
             label: "damage (-)",
             vmin: 0.0,

@@ -1,4 +1,6 @@
+pub mod colour_range;
 pub mod curve;
 pub mod damage_map;
 mod font;
 pub mod history_plots;
+pub mod map_nodes;
