@@ -90,7 +90,7 @@ const VIRIDIS: [[u8; 3]; 9] = [
 ];
 
 /// Colour of `t` in [0, 1] (clamped) on the viridis map.
-pub(crate) fn colormap(t: f64) -> [u8; 3] {
+pub fn colormap(t: f64) -> [u8; 3] {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
     let x = t * (VIRIDIS.len() - 1) as f64;
     let i = (x.floor() as usize).min(VIRIDIS.len() - 2);

@@ -14,6 +14,7 @@ mod determinism;
 mod dual_horizon;
 mod energy_conservation;
 mod examples_run;
+mod field_maps;
 mod fracture_energy;
 mod fracture_rules;
 mod gmsh;
