@@ -687,7 +687,7 @@ pub struct OutputDeck {
     /// dynamics, 1 (every load step) for quasi-static runs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub history_interval: Option<u64>,
-    /// Number of field snapshots over the run (VTU, and PNG in 2D), besides the initial one.
+    /// Number of field snapshots over the run (VTU, and the PNG maps), besides the initial one.
     #[serde(default = "default_snapshots")]
     pub snapshots: u64,
     /// Write PNG field maps of every snapshot (in 3D of a slice); `false` turns all maps off.

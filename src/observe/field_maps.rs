@@ -50,7 +50,12 @@ impl FieldMaps {
             (2, _) => MapNodes::whole(&body.positions, &body.cell_sizes),
             (_, s) => {
                 let axis = s.map_or(2, |s| s.axis.index());
-                MapNodes::slice(&body.positions, &body.cell_sizes, axis, s.and_then(|s| s.at))
+                MapNodes::slice(
+                    &body.positions,
+                    &body.cell_sizes,
+                    axis,
+                    s.and_then(|s| s.at),
+                )
             }
         });
         if nodes.is_empty() {

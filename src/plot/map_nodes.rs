@@ -30,15 +30,20 @@ fn in_plane(axis: usize) -> [usize; 2] {
     }
 }
 
-/// The middle of the nodes' extent along `axis` (m).
-pub fn mid_plane<const D: usize>(positions: &[Vector<D>], axis: usize) -> f64 {
-    let (lo, hi) = positions.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(p[axis]), hi.max(p[axis]))
-    });
-    if lo <= hi {
-        0.5 * (lo + hi)
-    } else {
-        0.0
+/// The smallest and largest node coordinate along `axis` (m); [∞, −∞] without nodes.
+pub fn extent<const D: usize>(positions: &[Vector<D>], axis: usize) -> [f64; 2] {
+    positions
+        .iter()
+        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], p| {
+            [lo.min(p[axis]), hi.max(p[axis])]
+        })
+}
+
+/// The middle of the nodes' extent along `axis` (m); 0 without nodes.
+fn mid_plane<const D: usize>(positions: &[Vector<D>], axis: usize) -> f64 {
+    match extent(positions, axis) {
+        [lo, hi] if lo <= hi => 0.5 * (lo + hi),
+        _ => 0.0,
     }
 }
 

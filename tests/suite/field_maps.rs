@@ -135,20 +135,17 @@ impl Image {
         let y = (rows[0] + rows[rows.len() - 1]) / 2;
         // The plot is the first coloured run of the row; the colour bar comes after a gap.
         let start = (0..self.width).find(|&x| self.coloured(x, y)).unwrap();
-        let end = (start..self.width)
-            .find(|&x| !self.coloured(x, y))
-            .unwrap();
-        (start..end).map(|x| colour_position(self.pixel(x, y))).collect()
+        let end = (start..self.width).find(|&x| !self.coloured(x, y)).unwrap();
+        (start..end)
+            .map(|x| colour_position(self.pixel(x, y)))
+            .collect()
     }
 }
 
 /// Where on the colour map a colour lies (the nearest of 1001 samples).
 fn colour_position(rgb: [u8; 3]) -> f64 {
-    let distance = |c: [u8; 3]| -> i32 {
-        (0..3)
-            .map(|k| (c[k] as i32 - rgb[k] as i32).pow(2))
-            .sum()
-    };
+    let distance =
+        |c: [u8; 3]| -> i32 { (0..3).map(|k| (c[k] as i32 - rgb[k] as i32).pow(2)).sum() };
     let k = (0..=1000)
         .min_by_key(|&k| distance(colormap(k as f64 / 1000.0)))
         .unwrap();
@@ -175,16 +172,16 @@ fn assert_numbered_maps(out: &Path, fields: &[&str], steps: &[&str]) {
             .collect();
         assert_eq!(numbered, expected, "{field}");
         let latest = std::fs::read(out.join("images").join(numbered.last().unwrap())).unwrap();
-        assert_eq!(latest, std::fs::read(out.join(format!("{field}.png"))).unwrap());
+        assert_eq!(
+            latest,
+            std::fs::read(out.join(format!("{field}.png"))).unwrap()
+        );
     }
 }
 
 #[test]
 fn a_2d_run_maps_each_chosen_field_and_the_maps_show_the_stretch() {
-    let ld = stretched_bar(
-        2,
-        r#"maps = ["damage", "strain_energy", "displacement"]"#,
-    );
+    let ld = stretched_bar(2, r#"maps = ["damage", "strain_energy", "displacement"]"#);
     let out = run_into(&ld, "2d");
     let steps = ["00000000", "00000001", "00000002"];
     assert_numbered_maps(&out, &["damage", "strain_energy", "displacement"], &steps);
@@ -201,7 +198,10 @@ fn a_2d_run_maps_each_chosen_field_and_the_maps_show_the_stretch() {
     assert!(first < 0.05 && last > 0.95, "{first} {last}");
     let quarter = |k: usize| u[k * (u.len() - 1) / 4];
     assert!(quarter(1) < quarter(2) && quarter(2) < quarter(3));
-    assert!((quarter(2) - 0.5).abs() < 0.1, "the middle moves half the pull");
+    assert!(
+        (quarter(2) - 0.5).abs() < 0.1,
+        "the middle moves half the pull"
+    );
 
     // Strain energy: the stretched middle near the top of its range; the held end, whose bonds
     // are mostly unstretched, well below it.
@@ -223,7 +223,10 @@ fn the_default_is_todays_damage_map_and_png_false_draws_nothing() {
     assert_numbered_maps(&out, &["damage"], &["00000000", "00000001", "00000002"]);
     std::fs::remove_dir_all(&out).ok();
 
-    let out = run_into(&stretched_bar(2, "png = false\nmaps = [\"displacement\"]"), "off");
+    let out = run_into(
+        &stretched_bar(2, "png = false\nmaps = [\"displacement\"]"),
+        "off",
+    );
     assert!(pngs_in(&out, "").is_empty());
     assert!(!out.join("images").exists());
     std::fs::remove_dir_all(&out).ok();
@@ -261,14 +264,18 @@ fn a_3d_run_maps_a_slice() {
         "3D slice across x = 4 mm, displacement along y: {:?}",
         (u[1], u[u.len() - 2])
     );
-    assert!(u[1..u.len() - 1].iter().all(|&t| (t - 0.5).abs() < 0.1), "{u:?}");
+    assert!(
+        u[1..u.len() - 1].iter().all(|&t| (t - 0.5).abs() < 0.1),
+        "{u:?}"
+    );
     std::fs::remove_dir_all(&out).ok();
 }
 
 #[test]
 fn an_unknown_map_is_refused_naming_the_key_and_the_choices() {
     let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/decks/bad/output_maps_unknown_field.toml"),
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/decks/bad/output_maps_unknown_field.toml"),
     )
     .unwrap();
     let text = text.replace("[\"damage\", \"stress\"]", "[\"stress\"]");
