@@ -6,6 +6,7 @@
 use peridyn::body::Body;
 use peridyn::bonds::{search::build_bonds, PartialVolume, Precrack};
 use peridyn::damage::CriticalStretch;
+use peridyn::deck::schema::OutputDeck;
 use peridyn::discretize::lattice::lattice;
 use peridyn::geometry::Shape;
 use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
@@ -103,7 +104,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Box::new(Snapshots::new(
             out.clone(),
             steps / 4,
-            true,
+            &OutputDeck::default(), // the damage map, as a deck without [output] draws
             "library API example",
         )?),
         Box::new(Progress::new(steps, false)),

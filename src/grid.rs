@@ -207,6 +207,7 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
                 width_px: 1600,
                 outline: &outline,
                 fill_gaps: false,
+                axis_names: ["x", "y"],
             },
         )
         .map_err(|e| RunError::Io(std::io::Error::other(e.to_string())))?;

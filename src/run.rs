@@ -470,7 +470,7 @@ fn run_model<const D: usize, M: Material<D>>(
         Box::new(Snapshots::new(
             out.clone(),
             snapshot_every,
-            deck.output.png,
+            &deck.output,
             &title,
         )?),
         Box::new(Progress::new(report.steps, opts.quiet)),

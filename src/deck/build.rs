@@ -24,6 +24,7 @@ use crate::material::surface_correction::{
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
+use crate::plot::map_nodes::{extent, MapNodes};
 use crate::solver::{AdaptiveDtSettings, EquilibriumMethod, QuasiStaticSettings};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -334,6 +335,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         }
     }
     unknown_sets(deck, &body, &mut issues);
+    map_slice_cuts_body(deck, &body, &mut issues);
     if !issues.is_empty() {
         return Err(ld.locate(issues));
     }
@@ -492,6 +494,31 @@ fn unknown_sets<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut Vec<De
             ));
         }
     }
+}
+
+/// A 3D run's maps need nodes on the plane `[output] map_slice` names.
+fn map_slice_cuts_body<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut Vec<DeckIssue>) {
+    let o = &deck.output;
+    let Some(slice) = o
+        .map_slice
+        .filter(|_| D == 3 && o.png && !o.maps.is_empty())
+    else {
+        return;
+    };
+    let axis = slice.axis.index();
+    if !MapNodes::slice(&body.positions, &body.cell_sizes, axis, slice.at).is_empty() {
+        return;
+    }
+    let [lo, hi] = extent(&body.positions, axis);
+    let name = ["x", "y", "z"][axis];
+    issues.push(DeckIssue::new(
+        if slice.at.is_some() {
+            "output.map_slice.at"
+        } else {
+            "output.map_slice"
+        },
+        format!("the map plane cuts no node; expected {name} between the nodes' {lo} and {hi} m"),
+    ));
 }
 
 /// History words per bond of a damage law with a central material or not (for the memory

@@ -687,12 +687,18 @@ pub struct OutputDeck {
     /// dynamics, 1 (every load step) for quasi-static runs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub history_interval: Option<u64>,
-    /// Number of field snapshots over the run (VTU, and PNG in 2D), besides the initial one.
+    /// Number of field snapshots over the run (VTU, and the PNG maps), besides the initial one.
     #[serde(default = "default_snapshots")]
     pub snapshots: u64,
-    /// Write PNG damage maps (2D only).
+    /// Write PNG field maps of every snapshot (in 3D of a slice); `false` turns all maps off.
     #[serde(default = "default_true")]
     pub png: bool,
+    /// The fields drawn as maps when `png` is on.
+    #[serde(default = "default_maps")]
+    pub maps: Vec<MapField>,
+    /// The plane a 3D run's maps show; absent: the body's mid-plane along z.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_slice: Option<MapSliceDeck>,
     /// Write PNG plots of the history (energies, load–displacement, openings, time step) at
     /// the end of the run.
     #[serde(default = "default_true")]
@@ -701,6 +707,45 @@ pub struct OutputDeck {
     /// recorded in the history.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub openings: Vec<OpeningDeck>,
+}
+
+/// A nodal field drawn as a PNG map; its deck name is also its file name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MapField {
+    /// Damage index (-).
+    Damage,
+    /// Strain energy density W_i (J/m³).
+    StrainEnergy,
+    /// Displacement magnitude |u| (m).
+    Displacement,
+}
+
+impl MapField {
+    /// The deck name, used for the file names `<name>.png` and `images/<name>_step_N.png`.
+    pub fn name(self) -> &'static str {
+        match self {
+            MapField::Damage => "damage",
+            MapField::StrainEnergy => "strain_energy",
+            MapField::Displacement => "displacement",
+        }
+    }
+}
+
+/// `[output] map_slice = { axis = "z", at = 1e-3 }`: the plane of a 3D run's maps.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapSliceDeck {
+    /// The plane's normal.
+    #[serde(default = "default_slice_axis")]
+    pub axis: Component,
+    /// The plane's coordinate along `axis` (m); absent: the middle of the body's extent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<f64>,
+}
+
+fn default_slice_axis() -> Component {
+    Component::Z
 }
 
 /// `[[output.openings]]`: the change of distance between the nodes nearest two points.
@@ -718,6 +763,9 @@ fn default_snapshots() -> u64 {
 fn default_true() -> bool {
     true
 }
+fn default_maps() -> Vec<MapField> {
+    vec![MapField::Damage]
+}
 
 impl Default for OutputDeck {
     fn default() -> Self {
@@ -725,6 +773,8 @@ impl Default for OutputDeck {
             history_interval: None,
             snapshots: default_snapshots(),
             png: true,
+            maps: default_maps(),
+            map_slice: None,
             plots: true,
             openings: Vec::new(),
         }

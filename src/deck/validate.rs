@@ -392,6 +392,7 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         }
     }
 
+    validate_maps(&mut out, &deck.output, d);
     let mut names = std::collections::BTreeSet::new();
     for (k, o) in deck.output.openings.iter().enumerate() {
         let p = format!("output.openings[{k}]");
@@ -542,6 +543,31 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         validate_crack_tip(&mut out, tip, d);
     }
     out
+}
+
+/// `[output]` maps: each field once; a slice plane only in 3D, at a finite coordinate.
+/// (Whether the plane cuts the body is checked once the body is built.)
+fn validate_maps(out: &mut Vec<DeckIssue>, o: &OutputDeck, d: usize) {
+    for (k, field) in o.maps.iter().enumerate() {
+        if o.maps[..k].contains(field) {
+            out.push(DeckIssue::new(
+                &format!("output.maps[{k}]"),
+                format!("the map {:?} is listed twice", field.name()),
+            ));
+        }
+    }
+    let Some(slice) = &o.map_slice else { return };
+    if d != 3 {
+        out.push(DeckIssue::new(
+            "output.map_slice",
+            "`map_slice` applies to 3D decks only (2D maps show the whole body); remove it",
+        ));
+    } else if let Some(at) = slice.at.filter(|a| !a.is_finite()) {
+        out.push(DeckIssue::new(
+            "output.map_slice.at",
+            format!("the slice plane's coordinate (m) must be a finite number, found {at}"),
+        ));
+    }
 }
 
 /// `[analysis.crack_tip]`: a usable direction, threshold, schedule and branch boxes.

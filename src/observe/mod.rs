@@ -2,6 +2,7 @@
 
 pub mod crack_tip;
 pub mod csv;
+pub mod field_maps;
 pub mod history;
 pub mod observer;
 pub mod progress;

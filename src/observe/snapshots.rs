@@ -1,10 +1,11 @@
-//! Field snapshots: VTU files in a PVD series, and a PNG damage map for 2D runs.
+//! Field snapshots: VTU files in a PVD series, and the PNG field maps of `[output] maps`.
 
+use super::field_maps::FieldMaps;
 use super::observer::{Every, Observer, StepView};
 use super::pvd::PvdSeries;
 use super::vtu::{write_vtu, Field, FieldData};
+use crate::deck::schema::OutputDeck;
 use crate::math::to3;
-use crate::plot::damage_map::{write_scalar_map_png, MapStyle};
 use std::io;
 use std::path::PathBuf;
 
@@ -12,31 +13,26 @@ pub struct Snapshots {
     dir: PathBuf,
     series: PvdSeries,
     every: Every,
-    png: bool,
-    title: String,
+    /// `None` when no map is wanted: then maps cost nothing.
+    maps: Option<FieldMaps>,
 }
 
 impl Snapshots {
-    /// Writes `dir/fields/step_NNNNNNNN.vtu`, the series `dir/fields.pvd` and, in 2D when
-    /// `png`, `dir/images/damage_step_NNNNNNNN.png` plus `dir/damage.png` (the latest).
-    pub fn new(dir: PathBuf, every: u64, png: bool, title: &str) -> io::Result<Self> {
+    /// Writes `dir/fields/step_NNNNNNNN.vtu`, the series `dir/fields.pvd` and the maps
+    /// `output` asks for (see `FieldMaps`).
+    pub fn new(dir: PathBuf, every: u64, output: &OutputDeck, title: &str) -> io::Result<Self> {
         std::fs::create_dir_all(dir.join("fields"))
             .map_err(|e| with_path(e, &dir.join("fields")))?;
-        if png {
-            std::fs::create_dir_all(dir.join("images"))
-                .map_err(|e| with_path(e, &dir.join("images")))?;
-        }
         Ok(Snapshots {
             series: PvdSeries::new(dir.join("fields.pvd")),
+            maps: FieldMaps::new(&dir, output, title)?,
             dir,
             every: Every(every),
-            png,
-            title: title.to_string(),
         })
     }
 }
 
-fn with_path(e: io::Error, p: &std::path::Path) -> io::Error {
+pub(super) fn with_path(e: io::Error, p: &std::path::Path) -> io::Error {
     io::Error::new(e.kind(), format!("{}: {e}", p.display()))
 }
 
@@ -90,31 +86,8 @@ impl<const D: usize> Observer<D> for Snapshots {
         )?;
         self.series
             .add(view.state.time, &format!("fields/{name}"))?;
-        if D == 2 && self.png {
-            let xy: Vec<[f64; 2]> = view.body.positions.iter().map(|p| [p[0], p[1]]).collect();
-            let title = format!(
-                "{} — damage at t = {:.3} µs (step {step})",
-                self.title,
-                view.state.time * 1e6
-            );
-            let style = MapStyle {
-                outline: &[],
-                fill_gaps: true,
-                title: &title,
-                label: "damage (-)",
-                vmin: 0.0,
-                vmax: 1.0,
-                width_px: 1200,
-            };
-            let path = self
-                .dir
-                .join("images")
-                .join(format!("damage_step_{step:08}.png"));
-            write_scalar_map_png(&path, &xy, &view.body.cell_sizes, view.damage(), &style)
-                .map_err(|e| io::Error::other(e.to_string()))?;
-            // The latest map, also replaced atomically.
-            let bytes = std::fs::read(&path).map_err(|e| with_path(e, &path))?;
-            crate::atomic_file::write_atomic(&self.dir.join("damage.png"), &bytes)?;
+        if let Some(maps) = &mut self.maps {
+            maps.write(view)?;
         }
         Ok(())
     }

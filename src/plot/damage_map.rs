@@ -58,6 +58,8 @@ pub struct MapStyle<'a> {
     /// Close the slivers an unstructured mesh leaves between node squares (field maps); off
     /// where the gaps are the point (a grid's node picture).
     pub fill_gaps: bool,
+    /// Names of the horizontal and vertical axes ("x", "y"; other pairs for 3D slices).
+    pub axis_names: [&'a str; 2],
 }
 
 /// An RGB8 image in memory plus where the data area lies in it.
@@ -88,7 +90,7 @@ const VIRIDIS: [[u8; 3]; 9] = [
 ];
 
 /// Colour of `t` in [0, 1] (clamped) on the viridis map.
-pub(crate) fn colormap(t: f64) -> [u8; 3] {
+pub fn colormap(t: f64) -> [u8; 3] {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
     let x = t * (VIRIDIS.len() - 1) as f64;
     let i = (x.floor() as usize).min(VIRIDIS.len() - 2);
@@ -323,8 +325,8 @@ pub(crate) fn render_scalar_map(
             .disable_mesh()
             .x_labels((pw / 90).clamp(2, 12) as usize)
             .y_labels((ph / 60).clamp(2, 12) as usize)
-            .x_desc("x (mm)")
-            .y_desc("y (mm)")
+            .x_desc(format!("{} (mm)", style.axis_names[0]))
+            .y_desc(format!("{} (mm)", style.axis_names[1]))
             .label_style(tick_font.clone())
             .axis_desc_style(label_font.clone())
             .draw()
@@ -443,14 +445,17 @@ fn rasterise_nodes(
     let mut sum = vec![0f64; pw * ph];
     let mut count = vec![0u32; pw * ph];
     // Pixel index range covering [a, b) in area pixel units; at least the
-    // pixel containing the centre so sub-pixel nodes still show up.
+    // pixel containing the centre so sub-pixel nodes still show up. A face shared by two
+    // nodes lands on either side of a half pixel by rounding; widening both ends a little
+    // lets the neighbours share that pixel instead of leaving it blank.
+    const SLACK: f64 = 1e-6;
     let span = |a: f64, b: f64, n: usize| -> Option<(usize, usize)> {
         let c = 0.5 * (a + b);
         if !(c >= 0.0 && c < n as f64) {
             return None;
         }
-        let lo = (a.round().max(0.0) as usize).min(n);
-        let hi = (b.round().max(0.0) as usize).min(n);
+        let lo = ((a - SLACK).round().max(0.0) as usize).min(n);
+        let hi = ((b + SLACK).round().max(0.0) as usize).min(n);
         Some(if hi > lo {
             (lo, hi)
         } else {
@@ -558,6 +563,7 @@ mod tests {
         MapStyle {
             outline: &[],
             fill_gaps: true,
+            axis_names: ["x", "y"],
             title: "Damage, step 1000",
             label: "damage (-)",
             vmin: 0.0,
@@ -607,6 +613,22 @@ mod tests {
         };
         assert!(background(false) > 1000, "the test needs gaps to close");
         assert_eq!(background(true), 0);
+    }
+
+    /// Where a cell face falls on half a pixel, rounding must not leave a pixel row or column
+    /// to neither neighbour (a white line through the map).
+    #[test]
+    fn lattices_tile_the_plot_area_at_every_size() {
+        for n in 4..48 {
+            let (xy, cell, val) = plate(n, 0.4e-3);
+            let img = render_scalar_map(&xy, &cell, &val, &style()).unwrap();
+            let (xs, ys) = img.plot_area.clone();
+            let blank = ys
+                .flat_map(|y| xs.clone().map(move |x| (x, y)))
+                .filter(|&(x, y)| pixel(&img, x, y) == BACKGROUND)
+                .count();
+            assert_eq!(blank, 0, "{n} × {n} nodes");
+        }
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! output written so far.
 
 use peridyn::bonds::PartialVolume;
+use peridyn::deck::schema::OutputDeck;
 use peridyn::loading::Loading;
 use peridyn::material::{Dimensionality, MicromodulusProfile, Pmb};
 use peridyn::observe::history::History;
@@ -46,9 +47,13 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
     }
     let out = std::env::temp_dir().join(format!("peridyn-unstable-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
+    let no_maps = OutputDeck {
+        png: false,
+        ..OutputDeck::default()
+    };
     let mut observers: Vec<Box<dyn Observer<2>>> = vec![
         Box::new(History::new::<2>(&out.join("history.csv"), 10, &[])),
-        Box::new(Snapshots::new(out.clone(), 50, false, "unstable").unwrap()),
+        Box::new(Snapshots::new(out.clone(), 50, &no_maps, "unstable").unwrap()),
     ];
     let result = drive(&mut sim, 2000, &mut observers);
     for o in observers.iter_mut() {

@@ -15,6 +15,7 @@ mod dual_horizon;
 mod energy_accounting;
 mod energy_conservation;
 mod examples_run;
+mod field_maps;
 mod fracture_energy;
 mod fracture_rules;
 mod gmsh;
