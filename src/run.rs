@@ -9,6 +9,7 @@ use crate::deck::build::{
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
+use crate::observe::crack_path::{CrackPath, PathReport, PathSettings};
 use crate::observe::crack_tip::{CrackReport, CrackTips};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
@@ -191,6 +192,8 @@ pub struct RunSummary {
     pub out_dir: PathBuf,
     /// With `[analysis.crack_tip]`: the Rayleigh speed and each branch's mean crack speed.
     pub crack: Option<CrackReport>,
+    /// With `[analysis.crack_path]`: the path, its comparison with the reference, the forks.
+    pub crack_path: Option<PathReport>,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -209,6 +212,9 @@ impl std::fmt::Display for RunSummary {
         )?;
         if let Some(c) = &self.crack {
             writeln!(f, "crack            {c}")?;
+        }
+        if let Some(p) = &self.crack_path {
+            writeln!(f, "crack path       {p}")?;
         }
         writeln!(f, "timers           {}", self.timers)?;
         write!(f, "results in       {}", self.out_dir.display())
@@ -484,6 +490,15 @@ fn run_model<const D: usize, M: Material<D>>(
         }
         None => None,
     };
+    let path = match deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
+        Some(p) if D == 2 => {
+            let observer = crack_path(p, &sim.body, out);
+            let handle = observer.report();
+            observers.push(Box::new(observer));
+            Some(handle)
+        }
+        _ => None,
+    };
 
     let started = Instant::now();
     let settings = solver_settings(deck);
@@ -519,6 +534,7 @@ fn run_model<const D: usize, M: Material<D>>(
         out_dir: out.clone(),
         report,
         crack: crack.and_then(|c| c.borrow().clone()),
+        crack_path: path.and_then(|c| c.borrow().clone()),
     };
     if deck.output.plots {
         crate::plot::history_plots::write_history_plots(out)
@@ -606,6 +622,29 @@ fn crack_tips<const D: usize, M: Material<D>>(
     } else {
         tips
     }
+}
+
+/// The crack-path observer of `[analysis.crack_path]`, its lengths defaulting to multiples of
+/// the smallest cell size.
+fn crack_path<const D: usize>(
+    p: &crate::deck::schema::CrackPathDeck,
+    body: &crate::body::Body<D>,
+    out: &std::path::Path,
+) -> CrackPath {
+    let h = body.min_cell_size();
+    CrackPath::new(
+        out,
+        PathSettings {
+            axis: p.axis.index(),
+            threshold: p.threshold,
+            bin_width: p.bin_width.unwrap_or(2.0 * h),
+            reference: p.reference.iter().map(|q| (q[0], q[1])).collect(),
+            samples: p.samples,
+            interval: p.interval,
+            link: p.link.unwrap_or(3.0 * h),
+            fit_bands: p.fit_bands,
+        },
+    )
 }
 
 /// The step loop: step, check for blow-up, offer the committed step to observers.

@@ -788,6 +788,52 @@ pub struct AnalysisDeck {
     /// Crack-tip tracking and crack speed (`crack_tip.csv`, `crack_speed.csv`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crack_tip: Option<CrackTipDeck>,
+    /// The crack path and its forks, 2D (`crack_path.csv`, `branching.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crack_path: Option<CrackPathDeck>,
+}
+
+/// `[analysis.crack_path]` (2D): the crack as a polyline binned along `axis` at the end of the
+/// run, compared with a `reference` path when given (seed 003 §4: Pearson correlation over 52
+/// samples); forks of the damaged region looked for every `interval` steps.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrackPathDeck {
+    /// The axis the crack runs along (x or y); forks are looked for along +axis.
+    #[serde(default = "default_path_axis")]
+    pub axis: Component,
+    /// A node is damaged when its damage exceeds this.
+    #[serde(default = "default_tip_threshold")]
+    pub threshold: f64,
+    /// Bin width along the axis (m); absent: twice the smallest cell size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bin_width: Option<f64>,
+    /// Reference path, points (x, y) in m.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reference: Vec<Vec<f64>>,
+    /// Sample points of the comparison (seed 003: 52).
+    #[serde(default = "default_path_samples")]
+    pub samples: usize,
+    /// Steps between fork checks (the last step is always checked).
+    #[serde(default = "default_tip_interval")]
+    pub interval: u64,
+    /// Damaged nodes closer than this are one region, and the bands across the axis are this
+    /// wide (m); absent: three times the smallest cell size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link: Option<f64>,
+    /// Bands a branch's angle is fitted over.
+    #[serde(default = "default_fit_bands")]
+    pub fit_bands: usize,
+}
+
+fn default_path_axis() -> Component {
+    Component::X
+}
+fn default_path_samples() -> usize {
+    52
+}
+fn default_fit_bands() -> usize {
+    3
 }
 
 /// `[analysis.crack_tip]`: the tip is the damaged node furthest along `direction` (seed 000

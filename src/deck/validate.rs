@@ -542,7 +542,77 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     if let Some(tip) = deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         validate_crack_tip(&mut out, tip, d);
     }
+    if let Some(path) = deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
+        validate_crack_path(&mut out, path, d);
+    }
     out
+}
+
+/// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.
+fn validate_crack_path(out: &mut Vec<DeckIssue>, path: &CrackPathDeck, d: usize) {
+    let at = |key: &str| format!("analysis.crack_path.{key}");
+    if d != 2 {
+        out.push(DeckIssue::new(
+            "analysis.crack_path",
+            "crack paths and forks are measured in 2D decks only (a 3D crack is a surface); remove the table",
+        ));
+        return;
+    }
+    if path.axis.index() > 1 {
+        out.push(DeckIssue::new(
+            &at("axis"),
+            "expected \"x\" or \"y\" in a 2D deck, found \"z\"",
+        ));
+    }
+    if !(path.threshold >= 0.0 && path.threshold < 1.0) {
+        out.push(DeckIssue::new(
+            &at("threshold"),
+            format!(
+                "the damage threshold must lie in [0, 1), found {}",
+                path.threshold
+            ),
+        ));
+    }
+    for (key, value) in [("bin_width", path.bin_width), ("link", path.link)] {
+        if let Some(v) = value.filter(|v| !(*v > 0.0 && v.is_finite())) {
+            out.push(DeckIssue::new(
+                &at(key),
+                format!("expected a length > 0 (m), found {v}"),
+            ));
+        }
+    }
+    for (k, point) in path.reference.iter().enumerate() {
+        vector(
+            out,
+            &format!("analysis.crack_path.reference[{k}]"),
+            point,
+            2,
+        );
+    }
+    if path.reference.len() == 1 {
+        out.push(DeckIssue::new(
+            &at("reference"),
+            "a reference path needs at least two points, found one",
+        ));
+    }
+    if path.samples < 2 {
+        out.push(DeckIssue::new(
+            &at("samples"),
+            format!("expected at least 2 samples, found {}", path.samples),
+        ));
+    }
+    if path.interval == 0 {
+        out.push(DeckIssue::new(
+            &at("interval"),
+            "expected at least 1 step between fork checks, found 0",
+        ));
+    }
+    if path.fit_bands == 0 {
+        out.push(DeckIssue::new(
+            &at("fit_bands"),
+            "expected at least 1 band to fit a branch over, found 0",
+        ));
+    }
 }
 
 /// `[output]` maps: each field once; a slice plane only in 3D, at a finite coordinate.

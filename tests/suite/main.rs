@@ -7,6 +7,7 @@ mod blocks;
 mod common;
 mod conformance;
 mod correspondence;
+mod crack_path_run;
 mod crack_tracking;
 mod deck_errors;
 mod decks_good;
