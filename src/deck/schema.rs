@@ -701,6 +701,12 @@ pub struct OutputDeck {
     /// recorded in the history.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub openings: Vec<OpeningDeck>,
+    /// Write `checkpoint.bin` (the state to restart from) at every snapshot.
+    #[serde(default = "default_true")]
+    pub checkpoint: bool,
+    /// Steps between further checkpoints, besides those at snapshots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_interval: Option<u64>,
 }
 
 /// `[[output.openings]]`: the change of distance between the nodes nearest two points.
@@ -727,6 +733,8 @@ impl Default for OutputDeck {
             png: true,
             plots: true,
             openings: Vec::new(),
+            checkpoint: true,
+            checkpoint_interval: None,
         }
     }
 }
