@@ -20,6 +20,24 @@ impl Snapshots {
     /// Writes `dir/fields/step_NNNNNNNN.vtu`, the series `dir/fields.pvd` and, in 2D when
     /// `png`, `dir/images/damage_step_NNNNNNNN.png` plus `dir/damage.png` (the latest).
     pub fn new(dir: PathBuf, every: u64, png: bool, title: &str) -> io::Result<Self> {
+        let series = PvdSeries::new(dir.join("fields.pvd"));
+        Self::with_series(dir, series, every, png, title)
+    }
+
+    /// The snapshots of a run continued at simulation time `time`: the series keeps its
+    /// entries up to `time`; later snapshots are written again.
+    pub fn resume(dir: PathBuf, time: f64, every: u64, png: bool, title: &str) -> io::Result<Self> {
+        let series = PvdSeries::resume(dir.join("fields.pvd"), time)?;
+        Self::with_series(dir, series, every, png, title)
+    }
+
+    fn with_series(
+        dir: PathBuf,
+        series: PvdSeries,
+        every: u64,
+        png: bool,
+        title: &str,
+    ) -> io::Result<Self> {
         std::fs::create_dir_all(dir.join("fields"))
             .map_err(|e| with_path(e, &dir.join("fields")))?;
         if png {
@@ -27,7 +45,7 @@ impl Snapshots {
                 .map_err(|e| with_path(e, &dir.join("images")))?;
         }
         Ok(Snapshots {
-            series: PvdSeries::new(dir.join("fields.pvd")),
+            series,
             dir,
             every: Every(every),
             png,
