@@ -250,10 +250,14 @@ impl<'a> Reader<'a> {
         Ok(s)
     }
     fn u32(&mut self) -> Result<u32, CheckpointError> {
-        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
     }
     fn u64(&mut self) -> Result<u64, CheckpointError> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
     }
     fn f64(&mut self) -> Result<f64, CheckpointError> {
         Ok(f64::from_bits(self.u64()?))
@@ -360,7 +364,8 @@ pub fn restore<const D: usize>(
         }
     }
     let n = u.len();
-    let payload = SCALARS * 8 + 5 * n * D * 8 + status.len() + history.len() * 8 + previous.len() * D * 8;
+    let payload =
+        SCALARS * 8 + 5 * n * D * 8 + status.len() + history.len() * 8 + previous.len() * D * 8;
     let expected = (r.pos + payload + 8) as u64;
     if bytes.len() as u64 != expected {
         return Err(CheckpointError::Truncated {

@@ -311,7 +311,11 @@ fn run_dim<const D: usize>(
 fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
     if solver_settings(deck).quasi_static.is_some() {
         Some("a quasi-static run (its solver's state is not checkpointed)")
-    } else if deck.analysis.as_ref().is_some_and(|a| a.crack_tip.is_some()) {
+    } else if deck
+        .analysis
+        .as_ref()
+        .is_some_and(|a| a.crack_tip.is_some())
+    {
         Some("a run with [analysis.crack_tip] (the tip history is not checkpointed)")
     } else {
         None

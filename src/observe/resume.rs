@@ -94,7 +94,12 @@ pub fn rows_up_to(text: &str, step: u64, path: &Path) -> io::Result<String> {
             .split(',')
             .nth(column)
             .and_then(|c| c.parse::<f64>().ok())
-            .ok_or_else(|| invalid(format!("expected a step in column {}, found {line:?}", column + 1)))?;
+            .ok_or_else(|| {
+                invalid(format!(
+                    "expected a step in column {}, found {line:?}",
+                    column + 1
+                ))
+            })?;
         // Rows are in step order: the first one past the checkpoint ends the kept part.
         if value > step as f64 {
             break;

@@ -206,7 +206,10 @@ fn stopped_run(dir: &Path) -> (LoadedDeck, PathBuf) {
         ..RunControl::default()
     };
     let stopped = run_with(&ld, &options(&out, None), &stop);
-    assert!(matches!(stopped, Err(RunError::Stopped(200))), "{stopped:?}");
+    assert!(
+        matches!(stopped, Err(RunError::Stopped(200))),
+        "{stopped:?}"
+    );
     (ld, out)
 }
 
@@ -226,16 +229,18 @@ fn a_checkpoint_of_another_deck_is_refused_naming_both() {
     let dir = scratch("other-deck");
     let (_, out) = stopped_run(&dir);
     let before = files(&out);
-    let other = load(
-        &dir,
-        "stiffer.toml",
-        &deck_text(3.5e9, "steps = 400", ""),
-    );
+    let other = load(&dir, "stiffer.toml", &deck_text(3.5e9, "steps = 400", ""));
     let msg = restart_error(&other, &out);
     assert!(msg.contains("written by a different deck"), "{msg}");
-    assert!(msg.contains("plate.toml") && msg.contains("stiffer.toml"), "{msg}");
+    assert!(
+        msg.contains("plate.toml") && msg.contains("stiffer.toml"),
+        "{msg}"
+    );
     assert!(msg.contains(&out.display().to_string()), "{msg}");
-    assert!(files(&out) == before, "a refused restart leaves the folder as it was");
+    assert!(
+        files(&out) == before,
+        "a refused restart leaves the folder as it was"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -251,7 +256,10 @@ fn a_missing_damaged_or_foreign_checkpoint_is_refused() {
     flipped[k] ^= 0x40;
     std::fs::write(&path, &flipped).unwrap();
     let msg = restart_error(&ld, &out);
-    assert!(msg.contains("corrupt") && msg.contains("checkpoint.bin"), "{msg}");
+    assert!(
+        msg.contains("corrupt") && msg.contains("checkpoint.bin"),
+        "{msg}"
+    );
 
     std::fs::write(&path, &good[..good.len() - 100]).unwrap();
     let msg = restart_error(&ld, &out);
@@ -275,7 +283,10 @@ fn a_missing_damaged_or_foreign_checkpoint_is_refused() {
 
     std::fs::remove_file(&path).unwrap();
     let msg = restart_error(&ld, &out);
-    assert!(msg.contains("no checkpoint") && msg.contains("checkpoint.bin"), "{msg}");
+    assert!(
+        msg.contains("no checkpoint") && msg.contains("checkpoint.bin"),
+        "{msg}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -295,14 +306,21 @@ fn quasi_static_restart_is_refused_and_writes_no_checkpoint() {
     run(&ld, &options(&out, None)).unwrap();
     assert!(!out.join("checkpoint.bin").exists());
     let msg = restart_error(&ld, &out);
-    assert!(msg.contains("quasi-static") && msg.contains("not supported yet"), "{msg}");
+    assert!(
+        msg.contains("quasi-static") && msg.contains("not supported yet"),
+        "{msg}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn checkpoint_false_writes_none() {
     let dir = scratch("off");
-    let ld = load(&dir, "plate.toml", &deck_text(3.09e9, "steps = 20", "checkpoint = false"));
+    let ld = load(
+        &dir,
+        "plate.toml",
+        &deck_text(3.09e9, "steps = 20", "checkpoint = false"),
+    );
     let out = dir.join("run");
     run(&ld, &options(&out, None)).unwrap();
     assert!(out.join("history.csv").exists());
