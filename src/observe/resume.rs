@@ -35,6 +35,8 @@ impl<const D: usize> ResumedCsv<D> {
         name.push(path.file_name().unwrap_or_default());
         name.push(".continued");
         let side = path.with_file_name(name);
+        // One left by an earlier continuation that was killed holds rows of that run.
+        remove_if_present(&side)?;
         Ok(ResumedCsv {
             inner: make(&side),
             kept: rows_up_to(&text, step, path)?,
@@ -131,11 +133,15 @@ impl<const D: usize> Observer<D> for ResumedCsv<D> {
     fn finish(&mut self) -> io::Result<()> {
         self.inner.finish()?;
         self.merge()?;
-        std::fs::remove_file(&self.side).or_else(|e| match e.kind() {
-            io::ErrorKind::NotFound => Ok(()),
-            _ => Err(with_path(e, "cannot remove", &self.side)),
-        })
+        remove_if_present(&self.side)
     }
+}
+
+fn remove_if_present(path: &Path) -> io::Result<()> {
+    std::fs::remove_file(path).or_else(|e| match e.kind() {
+        io::ErrorKind::NotFound => Ok(()),
+        _ => Err(with_path(e, "cannot remove", path)),
+    })
 }
 
 #[cfg(test)]
