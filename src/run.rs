@@ -309,17 +309,10 @@ fn run_dim<const D: usize>(
 
 /// Why a deck's run cannot be continued from a checkpoint (then it writes none).
 fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
-    if solver_settings(deck).quasi_static.is_some() {
-        Some("a quasi-static run (its solver's state is not checkpointed)")
-    } else if deck
-        .analysis
-        .as_ref()
-        .is_some_and(|a| a.crack_tip.is_some())
-    {
-        Some("a run with [analysis.crack_tip] (the tip history is not checkpointed)")
-    } else {
-        None
-    }
+    solver_settings(deck)
+        .quasi_static
+        .is_some()
+        .then_some("a quasi-static run (its solver's state is not checkpointed)")
 }
 
 /// A constitution without its material: what `prepare` needs besides it.
@@ -548,7 +541,10 @@ fn run_model<const D: usize, M: Material<D>>(
     ];
     let crack = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         Some(tip) => {
-            let observer = crack_tips(deck, tip, &sim, &report, out);
+            let mut observer = crack_tips(deck, tip, &sim, &report, out);
+            if resume.is_some() {
+                observer = observer.resume(step, &sim.body.positions)?;
+            }
             let handle = observer.report();
             observers.push(Box::new(observer));
             Some(handle)

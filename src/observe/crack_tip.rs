@@ -9,7 +9,8 @@
 
 use super::csv::{push_number, quote};
 use super::observer::{Every, Observer, StepView};
-use crate::analysis::{branch_history, crack_speed, TipSample, TipTracker};
+use super::resume::rows_up_to;
+use crate::analysis::{branch_history, crack_speed, CrackFront, Tip, TipSample, TipTracker};
 use crate::atomic_file::write_atomic;
 use crate::math::Vector;
 use std::cell::RefCell;
@@ -95,6 +96,72 @@ impl<const D: usize> CrackTips<D> {
             samples: Vec::new(),
             report: Rc::new(RefCell::new(None)),
         }
+    }
+
+    /// Continues after a restart at `step`: the samples up to `step` are read back from
+    /// `crack_tip.csv` (which holds every sample up to the checkpoint), so the speeds and the
+    /// report span the whole run. `positions` are the body's reference positions: a tip is a
+    /// node, found again by its position.
+    pub fn resume(mut self, step: u64, positions: &[Vector<D>]) -> io::Result<Self> {
+        let path = &self.tip_path;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| crate::atomic_file::with_path(e, "cannot read", path))?;
+        let invalid = |what: String| {
+            io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("cannot continue '{}': {what}", path.display()),
+            )
+        };
+        let per_branch = if D == 3 { 2 * D } else { D };
+        let tip_cells = per_branch * self.tracker.branches.len();
+        let unit = self.tracker.direction.normalize();
+        let key = |p: &Vector<D>| p.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+        let mut nodes = std::collections::HashMap::new();
+        for (i, p) in positions.iter().enumerate() {
+            nodes.entry(key(p)).or_insert(i);
+        }
+        for line in rows_up_to(&text, step, path)?.lines().skip(1) {
+            // Empty cells: no tip in that branch.
+            let cells = line
+                .split(',')
+                .map(|c| (!c.is_empty()).then(|| c.parse::<f64>()).transpose())
+                .collect::<Result<Vec<Option<f64>>, _>>();
+            let (time, sample_step, tips) = match cells.as_deref() {
+                Ok([Some(t), Some(s), tips @ ..]) if tips.len() == tip_cells => (*t, *s, tips),
+                _ => {
+                    return Err(invalid(format!(
+                        "expected time, step and {tip_cells} tip cells, found {line:?}"
+                    )))
+                }
+            };
+            let mut row = Vec::new();
+            for cells in tips.chunks(per_branch) {
+                let Some(v) = cells.iter().copied().collect::<Option<Vec<f64>>>() else {
+                    row.push(None);
+                    continue;
+                };
+                let position = Vector::<D>::from_iterator(v[..D].iter().copied());
+                let index = *nodes
+                    .get(&key(&position))
+                    .ok_or_else(|| invalid(format!("no node at the tip {:?} of {line:?}", v)))?;
+                let tip = Tip {
+                    index,
+                    position,
+                    projection: position.dot(&unit),
+                };
+                // The front's node count is not in the file, and nothing written reads it.
+                let front = (D == 3 && v[D..].iter().all(|x| !x.is_nan())).then(|| CrackFront {
+                    mean: Vector::<D>::from_iterator(v[D..].iter().copied()),
+                    extreme: tip,
+                    count: 0,
+                });
+                row.push(Some(TipSample { time, tip, front }));
+            }
+            self.times.push(time);
+            self.steps.push(sample_step as u64);
+            self.samples.push(row);
+        }
+        Ok(self)
     }
 
     /// Where `finish` leaves the run's crack report (for the run summary).

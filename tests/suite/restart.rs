@@ -148,6 +148,7 @@ fn assert_restart_matches(ld: &LoadedDeck, dir: &Path, stop: u64) {
     };
     let continued = run_with(ld, &options(&parts, Some(2)), &restart).unwrap();
     assert_eq!(continued.broken_bonds, summary.broken_bonds);
+    assert_eq!(continued.crack, summary.crack);
     let full_rows = std::fs::read_to_string(whole.join("history.csv"))
         .unwrap()
         .lines()
@@ -160,15 +161,13 @@ fn assert_restart_matches(ld: &LoadedDeck, dir: &Path, stop: u64) {
 }
 
 #[test]
-fn explicit_run_continued_after_a_stop_is_byte_identical() {
+fn explicit_run_with_crack_tip_continued_after_a_stop_is_byte_identical() {
     let dir = scratch("explicit");
     // Checkpoints at the snapshots (0, 150, 300, …) and every 100 steps; stopped at 230, the
-    // run continues from step 200, after the crack started.
-    let ld = load(
-        &dir,
-        "plate.toml",
-        &deck_text(3.09e9, "steps = 600", "checkpoint_interval = 100"),
-    );
+    // run continues from step 200, after the crack started. The crack tip's samples (and so
+    // its speeds) span the restart.
+    let tip = "checkpoint_interval = 100\n[analysis.crack_tip]\ndirection = [1.0, 0.0]\ninterval = 10\nwindow = 3";
+    let ld = load(&dir, "plate.toml", &deck_text(3.09e9, "steps = 600", tip));
     assert_restart_matches(&ld, &dir, 230);
     let _ = std::fs::remove_dir_all(&dir);
 }
