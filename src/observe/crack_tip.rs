@@ -9,7 +9,7 @@
 
 use super::csv::{push_number, quote};
 use super::observer::{Every, Observer, StepView};
-use super::resume::rows_up_to;
+use super::resume::{cannot_continue, rows_up_to};
 use crate::analysis::{branch_history, crack_speed, CrackFront, Tip, TipSample, TipTracker};
 use crate::atomic_file::write_atomic;
 use crate::math::Vector;
@@ -106,12 +106,7 @@ impl<const D: usize> CrackTips<D> {
         let path = &self.tip_path;
         let text = std::fs::read_to_string(path)
             .map_err(|e| crate::atomic_file::with_path(e, "cannot read", path))?;
-        let invalid = |what: String| {
-            io::Error::new(
-                io::ErrorKind::InvalidData,
-                format!("cannot continue '{}': {what}", path.display()),
-            )
-        };
+        let invalid = |what: String| cannot_continue(path, what);
         let per_branch = if D == 3 { 2 * D } else { D };
         let tip_cells = per_branch * self.tracker.branches.len();
         let unit = self.tracker.direction.normalize();

@@ -30,23 +30,16 @@ impl PvdSeries {
     /// until the next [`add`](Self::add).
     pub fn resume(path: impl Into<PathBuf>, time: f64) -> io::Result<Self> {
         let path = path.into();
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => String::new(),
-            Err(e) => return Err(atomic::with_path(e, "cannot read", &path)),
-        };
+        let text = super::resume::read_if_present(&path)?;
         let mut entries = Vec::new();
         for line in text.lines().filter(|l| l.contains("<DataSet")) {
             let parsed = attribute(line, "timestep")
                 .and_then(|t| t.parse::<f64>().ok())
                 .zip(attribute(line, "file").map(xml_unescape));
             let Some((t, file)) = parsed else {
-                return Err(io::Error::new(
-                    io::ErrorKind::InvalidData,
-                    format!(
-                        "'{}': expected <DataSet timestep=\"…\" file=\"…\"/>, found {line:?}",
-                        path.display()
-                    ),
+                return Err(super::resume::cannot_continue(
+                    &path,
+                    format!("expected <DataSet timestep=\"…\" file=\"…\"/>, found {line:?}"),
                 ));
             };
             if t <= time {

@@ -48,21 +48,14 @@ impl<const D: usize> ResumedCsv<D> {
 
     /// Rewrites the file: the kept rows, then the side file's.
     fn merge(&mut self) -> io::Result<()> {
-        let side = match std::fs::read_to_string(&self.side) {
-            Ok(t) => t,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => String::new(),
-            Err(e) => return Err(with_path(e, "cannot read", &self.side)),
-        };
+        let side = read_if_present(&self.side)?;
         let mut text = self.kept.clone();
         if let Some((header, rows)) = side.split_once('\n') {
             let kept_header = self.kept.lines().next().unwrap_or_default();
             if header != kept_header {
-                return Err(io::Error::new(
-                    io::ErrorKind::InvalidData,
-                    format!(
-                        "cannot continue '{}': its columns are {kept_header:?}, the continued run's {header:?}",
-                        self.path.display()
-                    ),
+                return Err(cannot_continue(
+                    &self.path,
+                    format!("its columns are {kept_header:?}, the continued run's {header:?}"),
                 ));
             }
             text.push_str(rows);
@@ -76,12 +69,7 @@ impl<const D: usize> ResumedCsv<D> {
 /// The header and the rows of CSV `text` (read from `path`) whose `step` column is at most
 /// `step`.
 pub fn rows_up_to(text: &str, step: u64, path: &Path) -> io::Result<String> {
-    let invalid = |what: String| {
-        io::Error::new(
-            io::ErrorKind::InvalidData,
-            format!("cannot continue '{}': {what}", path.display()),
-        )
-    };
+    let invalid = |what: String| cannot_continue(path, what);
     let mut lines = text.lines();
     let header = lines
         .next()
@@ -134,6 +122,22 @@ impl<const D: usize> Observer<D> for ResumedCsv<D> {
         self.inner.finish()?;
         self.merge()?;
         remove_if_present(&self.side)
+    }
+}
+
+/// A file of the interrupted run that cannot be continued, and why.
+pub(crate) fn cannot_continue(path: &Path, what: String) -> io::Error {
+    io::Error::new(
+        io::ErrorKind::InvalidData,
+        format!("cannot continue '{}': {what}", path.display()),
+    )
+}
+
+/// The file's text, empty when there is none yet.
+pub(crate) fn read_if_present(path: &Path) -> io::Result<String> {
+    match std::fs::read_to_string(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(String::new()),
+        r => r.map_err(|e| with_path(e, "cannot read", path)),
     }
 }
 
