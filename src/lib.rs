@@ -9,6 +9,7 @@ pub mod atomic_file;
 pub mod bench;
 pub mod body;
 pub mod bonds;
+pub mod checkpoint;
 pub mod counters;
 pub mod damage;
 pub mod deck;

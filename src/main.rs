@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use peridyn::deck::LoadedDeck;
-use peridyn::run::{check, run, RunOptions};
+use peridyn::run::{check, run_with, RunControl, RunOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -31,6 +31,13 @@ enum Command {
         /// No progress output.
         #[arg(short, long)]
         quiet: bool,
+        /// Continue a killed run from the checkpoint in its results folder (-o, or DIR if
+        /// given), with the same deck; its files continue as if it had not stopped.
+        #[arg(long, value_name = "DIR", num_args = 0..=1)]
+        restart: Option<Option<PathBuf>>,
+        /// Stop after this step as if killed (tests of restarts).
+        #[arg(long, hide = true)]
+        stop_after_step: Option<u64>,
     },
     /// Draw the PNG plots of a finished (or interrupted) run's history.csv into RUN_DIR/plots:
     /// energies, load–displacement per loaded node set, openings, broken bonds, time step.
@@ -81,15 +88,27 @@ fn main() -> ExitCode {
             output,
             threads,
             quiet,
+            restart,
+            stop_after_step,
         } => (|| {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
+            let output = match (output, restart.clone().flatten()) {
+                (Some(o), Some(r)) if o != r => {
+                    return Err(format!("--restart {} and -o {} name different folders: a run continues in its own results folder; give one of them", r.display(), o.display()));
+                }
+                (o, r) => o.or(r),
+            };
             let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
-            let summary = run(
+            let summary = run_with(
                 &ld,
                 &RunOptions {
                     out_dir,
                     threads,
                     quiet,
+                },
+                &RunControl {
+                    restart: restart.is_some(),
+                    stop_after_step,
                 },
             )
             .map_err(|e| e.to_string())?;

@@ -1,6 +1,7 @@
 //! Dispatch-once: the deck's dimension and material pick `run_model::<D, M>()`; everything
 //! below is monomorphised. Also `check` (build and report without stepping).
 
+use crate::checkpoint::{CheckpointError, Checkpoints, DriverState, Origin};
 use crate::damage::Damage;
 use crate::deck::build::{
     build_constitution, build_model, solver_settings, Constitution, MaterialChoice, MaterialReport,
@@ -13,8 +14,9 @@ use crate::observe::crack_path::{CrackPath, PathReport, PathSettings};
 use crate::observe::crack_tip::{CrackReport, CrackTips};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
+use crate::observe::resume::ResumedCsv;
 use crate::observe::snapshots::Snapshots;
-use crate::observe::{Observer, StepView};
+use crate::observe::{Every, Observer, StepView};
 use crate::solver::Fields;
 use crate::solver::{
     AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation, StepError,
@@ -34,6 +36,11 @@ pub enum RunError {
     Io(#[from] std::io::Error),
     #[error("{0}")]
     Threads(String),
+    #[error("{0}")]
+    Checkpoint(#[from] CheckpointError),
+    /// The run stopped after this step as `RunControl::stop_after_step` asked.
+    #[error("stopped after step {0} as asked (--stop-after-step)")]
+    Stopped(u64),
 }
 
 /// Options of `peridyn run`.
@@ -43,6 +50,15 @@ pub struct RunOptions {
     pub threads: Option<usize>,
     /// No progress output.
     pub quiet: bool,
+}
+
+/// How a run continues or stops, besides `RunOptions`.
+#[derive(Debug, Clone, Default)]
+pub struct RunControl {
+    /// Continue the run in `RunOptions::out_dir` from its checkpoint.
+    pub restart: bool,
+    /// Stop after this step as a killed run would (files not finished): for tests of restarts.
+    pub stop_after_step: Option<u64>,
 }
 
 /// The model as built: what `peridyn check` prints and `resolved.toml` records.
@@ -262,26 +278,47 @@ fn check_dim<const D: usize>(ld: &LoadedDeck) -> Result<ModelReport, RunError> {
 
 /// Runs a deck, writing results into `opts.out_dir`.
 pub fn run(ld: &LoadedDeck, opts: &RunOptions) -> Result<RunSummary, RunError> {
+    run_with(ld, opts, &RunControl::default())
+}
+
+/// Runs a deck, or continues it from its checkpoint, as `control` says.
+pub fn run_with(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+) -> Result<RunSummary, RunError> {
     with_threads(opts.threads, || match ld.deck.dimension {
-        2 => run_dim::<2>(ld, opts),
-        _ => run_dim::<3>(ld, opts),
+        2 => run_dim::<2>(ld, opts, control),
+        _ => run_dim::<3>(ld, opts, control),
     })?
 }
 
-fn run_dim<const D: usize>(ld: &LoadedDeck, opts: &RunOptions) -> Result<RunSummary, RunError> {
+fn run_dim<const D: usize>(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+) -> Result<RunSummary, RunError> {
     let model = build_model::<D>(ld)?;
     let c = build_constitution(ld, &model)?;
     let (material, rest) = c.split();
     match material {
-        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, opts),
-        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, opts),
-        MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, opts),
+        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, opts, control),
+        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, opts, control),
+        MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, opts, control),
         // PMB and LPS blocks only: the scalar path.
         MaterialChoice::Mixed(m) => match m.into_central() {
-            Ok(m) => run_model(ld, model, m, rest, opts),
-            Err(m) => run_model(ld, model, m, rest, opts),
+            Ok(m) => run_model(ld, model, m, rest, opts, control),
+            Err(m) => run_model(ld, model, m, rest, opts, control),
         },
     }
+}
+
+/// Why a deck's run cannot be continued from a checkpoint (then it writes none).
+fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
+    solver_settings(deck)
+        .quasi_static
+        .is_some()
+        .then_some("a quasi-static run (its solver's state is not checkpointed)")
 }
 
 /// A constitution without its material: what `prepare` needs besides it.
@@ -433,18 +470,36 @@ fn run_model<const D: usize, M: Material<D>>(
     material: M,
     rest: DamageAndReports,
     opts: &RunOptions,
+    control: &RunControl,
 ) -> Result<RunSummary, RunError> {
     let pores = model.pores.clone();
-    let (mut sim, report) = prepare(ld, model, material, rest)?;
+    let deck = &ld.deck;
     let out = &opts.out_dir;
+    let unsupported = restart_unsupported(deck);
+    if let (true, Some(what)) = (control.restart, unsupported) {
+        return Err(CheckpointError::Unsupported(what).into());
+    }
+    let (mut sim, report) = prepare(ld, model, material, rest)?;
+    let resolved = resolved_deck(ld)?;
+    let origin = Origin::new(&resolved, &ld.file);
+    let checkpoint_path = out.join(crate::checkpoint::FILE_NAME);
+    // Checked before anything is written: a refused restart leaves the folder as it was.
+    let resume = if control.restart {
+        Some(crate::checkpoint::restore(
+            &checkpoint_path,
+            &origin,
+            &mut sim.state,
+        )?)
+    } else {
+        None
+    };
     std::fs::create_dir_all(out)
         .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
-    write_resolved(ld, &report, out)?;
+    write_resolved(ld, &resolved, &report, out)?;
     if let Some(text) = pores {
         crate::atomic_file::write_atomic(&out.join("pores.txt"), text.as_bytes())?;
     }
 
-    let deck = &ld.deck;
     let sets: Vec<(String, Vec<u32>)> = sim
         .body
         .node_sets
@@ -468,22 +523,34 @@ fn run_model<const D: usize, M: Material<D>>(
     } else {
         deck.title.clone()
     };
-    let mut observers: Vec<Box<dyn Observer<D>>> = vec![
-        Box::new(
-            History::new::<D>(&out.join("history.csv"), history_every, &sets)
-                .with_openings(&opening_nodes(&sim.body, &deck.output.openings)),
+    let openings = opening_nodes(&sim.body, &deck.output.openings);
+    let history = |path: &std::path::Path| -> Box<dyn Observer<D>> {
+        Box::new(History::new::<D>(path, history_every, &sets).with_openings(&openings))
+    };
+    let history_path = out.join("history.csv");
+    let (output, step, time) = (&deck.output, sim.state.step, sim.state.time);
+    let (history, snapshots) = match resume {
+        None => (
+            history(&history_path),
+            Snapshots::new(out.clone(), snapshot_every, output, &title)?,
         ),
-        Box::new(Snapshots::new(
-            out.clone(),
-            snapshot_every,
-            &deck.output,
-            &title,
-        )?),
+        // The files keep what they held up to the checkpoint's step.
+        Some(_) => (
+            Box::new(ResumedCsv::new(&history_path, step, history)?) as Box<dyn Observer<D>>,
+            Snapshots::resume(out.clone(), time, snapshot_every, output, &title)?,
+        ),
+    };
+    let mut observers: Vec<Box<dyn Observer<D>>> = vec![
+        history,
+        Box::new(snapshots),
         Box::new(Progress::new(report.steps, opts.quiet)),
     ];
     let crack = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         Some(tip) => {
-            let observer = crack_tips(deck, tip, &sim, &report, out);
+            let mut observer = crack_tips(deck, tip, &sim, &report, out);
+            if resume.is_some() {
+                observer = observer.resume(step, &sim.body.positions)?;
+            }
             let handle = observer.report();
             observers.push(Box::new(observer));
             Some(handle)
@@ -492,7 +559,10 @@ fn run_model<const D: usize, M: Material<D>>(
     };
     let path = match deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
         Some(p) if D == 2 => {
-            let observer = crack_path(p, &sim.body, out);
+            let mut observer = crack_path(p, &sim.body, out);
+            if resume.is_some() {
+                observer = observer.resume(step)?;
+            }
             let handle = observer.report();
             observers.push(Box::new(observer));
             Some(handle)
@@ -500,18 +570,36 @@ fn run_model<const D: usize, M: Material<D>>(
         _ => None,
     };
 
+    let checkpoints = (unsupported.is_none()
+        && (deck.output.checkpoint || deck.output.checkpoint_interval.is_some()))
+    .then(|| Checkpoints {
+        path: checkpoint_path,
+        origin,
+        snapshots: deck.output.checkpoint.then_some(Every(snapshot_every)),
+        interval: deck.output.checkpoint_interval,
+    });
+
     let started = Instant::now();
     let settings = solver_settings(deck);
+    let mut watch = Watch {
+        observers: &mut observers,
+        checkpoints,
+        stop_after: control.stop_after_step,
+        resume,
+    };
     let result = match (settings.quasi_static, settings.adaptive) {
-        (Some(qs), _) => drive_quasi_static(&mut sim, qs, report.steps, &mut observers),
+        (Some(qs), _) => drive_quasi_static(&mut sim, qs, report.steps, watch.observers),
         (None, Some(a)) => {
             let adaptive = a.settings(sim.dt);
-            drive_adaptive(&mut sim, adaptive, report.end_time, &mut observers)
+            adaptive_loop(&mut sim, adaptive, report.end_time, &mut watch)
         }
-        (None, None) => drive(&mut sim, report.steps, &mut observers),
+        (None, None) => explicit_loop(&mut sim, report.steps, &mut watch),
     };
-    for o in observers.iter_mut() {
-        o.finish()?;
+    // A stop stands for a kill: the files stay as the last flush left them.
+    if !matches!(result, Err(RunError::Stopped(_))) {
+        for o in observers.iter_mut() {
+            o.finish()?;
+        }
     }
     result?;
     let wall = started.elapsed().as_secs_f64();
@@ -647,19 +735,79 @@ fn crack_path<const D: usize>(
     )
 }
 
+/// What the explicit loops do with each committed step besides stepping: offer it to the
+/// observers, write the checkpoint that falls on it, stop where asked.
+struct Watch<'a, const D: usize> {
+    observers: &'a mut [Box<dyn Observer<D>>],
+    checkpoints: Option<Checkpoints>,
+    stop_after: Option<u64>,
+    /// Continuing from a checkpoint (whose step the observers saw before the interruption)
+    /// with the driver state it kept.
+    resume: Option<DriverState>,
+}
+
+impl<'a, const D: usize> Watch<'a, D> {
+    /// Only observers.
+    fn observers(observers: &'a mut [Box<dyn Observer<D>>]) -> Self {
+        Watch {
+            observers,
+            checkpoints: None,
+            stop_after: None,
+            resume: None,
+        }
+    }
+
+    fn commit<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        last: bool,
+        driver: DriverState,
+    ) -> Result<(), RunError> {
+        offer(sim, self.observers, last)?;
+        let step = sim.state.step;
+        if let Some(c) = self.checkpoints.as_ref().filter(|c| c.wants(step, last)) {
+            let started = Instant::now();
+            // The files first: a restart keeps what they hold up to the checkpoint's step.
+            for o in self.observers.iter_mut() {
+                o.flush()?;
+            }
+            c.write(&sim.state, &driver)?;
+            sim.counters.observe += started.elapsed();
+        }
+        match self.stop_after {
+            Some(n) if step >= n && !last => Err(RunError::Stopped(step)),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// The step loop: step, check for blow-up, offer the committed step to observers.
 pub fn drive<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     steps: u64,
     observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
-    offer(sim, observers, steps == 0)?;
-    for k in 1..=steps {
+    explicit_loop(sim, steps, &mut Watch::observers(observers))
+}
+
+fn explicit_loop<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    steps: u64,
+    watch: &mut Watch<D>,
+) -> Result<(), RunError> {
+    let driver = |sim: &Simulation<D, M>| DriverState {
+        next_dt: sim.dt,
+        ..DriverState::default()
+    };
+    if watch.resume.is_none() {
+        watch.commit(sim, steps == 0, driver(sim))?;
+    }
+    for k in sim.state.step + 1..=steps {
         sim.step()?;
         if k % 100 == 0 || k == steps {
             sim.check_finite()?;
         }
-        offer(sim, observers, k == steps)?;
+        watch.commit(sim, k == steps, driver(sim))?;
     }
     Ok(())
 }
@@ -672,11 +820,34 @@ pub fn drive_adaptive<const D: usize, M: Material<D>>(
     end_time: f64,
     observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
-    let mut controller = AdaptiveDt::new(settings);
-    // Times closer than this to the end are the end (rounding of accumulated steps).
+    adaptive_loop(sim, settings, end_time, &mut Watch::observers(observers))
+}
+
+fn adaptive_loop<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    settings: AdaptiveDtSettings,
+    end_time: f64,
+    watch: &mut Watch<D>,
+) -> Result<(), RunError> {
+    // Times closer than this to the end are the end (rounding of accumulated steps); from
+    // the initial dt, also when continuing.
     let slack = 1e-9 * sim.dt;
-    offer(sim, observers, end_time <= slack)?;
-    let mut k = 0u64;
+    let mut controller = match watch.resume {
+        None => AdaptiveDt::new(settings),
+        Some(d) => {
+            sim.dt = d.next_dt;
+            AdaptiveDt::resumed(settings, d.since_change, d.rejected)
+        }
+    };
+    let driver = |sim: &Simulation<D, M>, c: &AdaptiveDt<D>| DriverState {
+        next_dt: sim.dt,
+        since_change: c.since_change(),
+        rejected: c.rejected,
+    };
+    if watch.resume.is_none() {
+        watch.commit(sim, end_time <= slack, driver(sim, &controller))?;
+    }
+    let mut k = sim.state.step;
     while end_time - sim.state.time > slack {
         sim.dt = sim.dt.min(end_time - sim.state.time);
         controller.step(sim)?;
@@ -685,7 +856,7 @@ pub fn drive_adaptive<const D: usize, M: Material<D>>(
         if k.is_multiple_of(100) || last {
             sim.check_finite()?;
         }
-        offer(sim, observers, last)?;
+        watch.commit(sim, last, driver(sim, &controller))?;
     }
     Ok(())
 }
@@ -736,12 +907,8 @@ fn offer<const D: usize, M: Material<D>>(
     Ok(())
 }
 
-/// Writes `resolved.toml`: the deck with every default filled in, and the derived constants.
-fn write_resolved(
-    ld: &LoadedDeck,
-    report: &ModelReport,
-    out: &std::path::Path,
-) -> Result<(), RunError> {
+/// The deck with every default filled in, as `resolved.toml` holds it (and checkpoints hash).
+fn resolved_deck(ld: &LoadedDeck) -> Result<String, RunError> {
     // A point-cloud or mesh path is made absolute so the resolved deck runs from the results folder.
     let mut resolved = ld.deck.clone();
     resolved.output.history_interval = Some(ld.deck.history_interval());
@@ -754,7 +921,16 @@ fn write_resolved(
             .display()
             .to_string();
     }
-    let deck = toml::to_string(&resolved).map_err(|e| std::io::Error::other(e.to_string()))?;
+    Ok(toml::to_string(&resolved).map_err(|e| std::io::Error::other(e.to_string()))?)
+}
+
+/// Writes `resolved.toml`: the resolved `deck` text, and the derived constants.
+fn write_resolved(
+    ld: &LoadedDeck,
+    deck: &str,
+    report: &ModelReport,
+    out: &std::path::Path,
+) -> Result<(), RunError> {
     #[derive(Serialize)]
     struct Derived<'a> {
         derived: &'a ModelReport,

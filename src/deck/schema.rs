@@ -707,6 +707,12 @@ pub struct OutputDeck {
     /// recorded in the history.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub openings: Vec<OpeningDeck>,
+    /// Write `checkpoint.bin` (the state to restart from) at every snapshot.
+    #[serde(default = "default_true")]
+    pub checkpoint: bool,
+    /// Steps between further checkpoints, besides those at snapshots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_interval: Option<u64>,
 }
 
 /// A nodal field drawn as a PNG map; its deck name is also its file name.
@@ -777,6 +783,8 @@ impl Default for OutputDeck {
             map_slice: None,
             plots: true,
             openings: Vec::new(),
+            checkpoint: true,
+            checkpoint_interval: None,
         }
     }
 }

@@ -393,6 +393,13 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     }
 
     validate_maps(&mut out, &deck.output, d);
+    if deck.output.checkpoint_interval == Some(0) {
+        out.push(DeckIssue::new(
+            "output.checkpoint_interval",
+            "expected a number of steps ≥ 1 between checkpoints, found 0 (remove the key to checkpoint only at snapshots)",
+        ));
+    }
+
     let mut names = std::collections::BTreeSet::new();
     for (k, o) in deck.output.openings.iter().enumerate() {
         let p = format!("output.openings[{k}]");

@@ -5,10 +5,12 @@
 //! (`analysis::compare_paths`, seed 003 §4). Files, written atomically at the end:
 //! `crack_path.csv`, `crack_path_comparison.csv` (with a reference) and `branching.csv`.
 //! Sequential scans on the reference positions: the same files for any number of threads.
+//! A restart reads the forks back from `branching.csv`.
 
 use super::csv::push_number;
 use super::observer::{Every, Observer, StepView};
-use crate::analysis::{compare_paths, crack_path, find_forks, Fork, PathComparison};
+use super::resume::{cannot_continue, rows_up_to};
+use crate::analysis::{compare_paths, crack_path, find_forks, Fork, ForkBranch, PathComparison};
 use crate::atomic_file::write_atomic;
 use crate::math::Vector;
 use std::cell::RefCell;
@@ -99,6 +101,45 @@ impl CrackPath {
             path: Vec::new(),
             report: Rc::new(RefCell::new(None)),
         }
+    }
+
+    /// Continues after a restart at `step`: the forks first seen up to `step` are read back
+    /// from `branching.csv` (written before every checkpoint), with the branches they had
+    /// then. The fork's component and band are not in the file; nothing written reads them.
+    pub fn resume(mut self, step: u64) -> io::Result<Self> {
+        let path = self.dir.join("branching.csv");
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| crate::atomic_file::with_path(e, "cannot read", &path))?;
+        for line in rows_up_to(&text, step, &path)?.lines().skip(1) {
+            let cells: Vec<Option<f64>> = line.split(',').map(|c| c.parse::<f64>().ok()).collect();
+            let [Some(t), Some(s), Some(k), Some(x), Some(y), ix, iy, Some(_), Some(bx), Some(by), angle] =
+                cells[..]
+            else {
+                return Err(cannot_continue(
+                    &path,
+                    format!("expected the 11 cells of a fork's branch, found {line:?}"),
+                ));
+            };
+            let branch = ForkBranch {
+                start: Vector::<2>::new(bx, by),
+                angle_deg: angle,
+                bands_fitted: 0,
+            };
+            if self.forks.len() == k as usize + 1 {
+                self.forks[k as usize].2.branches.push(branch);
+                continue;
+            }
+            let intersection = ix.zip(iy).map(|(a, b)| Vector::<2>::new(a, b));
+            let fork = Fork {
+                component: 0,
+                band: 0,
+                position: Vector::<2>::new(x, y),
+                intersection,
+                branches: vec![branch],
+            };
+            self.forks.push((t, s as u64, fork));
+        }
+        Ok(self)
     }
 
     /// Where `finish` leaves the report.
@@ -262,5 +303,68 @@ impl<const D: usize> Observer<D> for CrackPath {
             forks: self.forks.iter().map(|(t, _, f)| (*t, f.clone())).collect(),
         });
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings() -> PathSettings {
+        PathSettings {
+            axis: 0,
+            threshold: 0.35,
+            bin_width: 1.0,
+            reference: Vec::new(),
+            samples: 52,
+            interval: 1,
+            link: 0.5,
+            fit_bands: 3,
+        }
+    }
+
+    fn fork(x: f64, angles: [Option<f64>; 2], crossing: bool) -> Fork {
+        Fork {
+            component: 0,
+            band: 0,
+            position: Vector::<2>::new(x, 1.0),
+            intersection: crossing.then(|| Vector::<2>::new(x - 0.25, 1.0)),
+            branches: angles
+                .iter()
+                .enumerate()
+                .map(|(k, a)| ForkBranch {
+                    start: Vector::<2>::new(x + 0.5, k as f64),
+                    angle_deg: *a,
+                    bands_fitted: 0,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_fork_seen_again_keeps_its_time_and_takes_the_new_branches() {
+        let mut o = CrackPath::new(Path::new("."), settings());
+        o.record_forks(1.0, 10, vec![fork(3.0, [None, None], false)]);
+        o.record_forks(2.0, 20, vec![fork(3.2, [Some(-20.0), Some(25.0)], true)]);
+        o.record_forks(3.0, 30, vec![fork(6.0, [None, None], false)]);
+        assert_eq!(o.forks.len(), 2);
+        assert_eq!((o.forks[0].0, o.forks[0].1), (1.0, 10));
+        assert_eq!(o.forks[0].2.branches[1].angle_deg, Some(25.0));
+    }
+
+    #[test]
+    fn a_restart_reads_back_the_forks_up_to_its_step() {
+        let dir = crate::atomic_file::test_dir("crack-path-resume");
+        let mut o = CrackPath::new(&dir, settings());
+        o.record_forks(1.5, 10, vec![fork(3.0, [Some(-20.0), None], true)]);
+        o.record_forks(2.5, 20, vec![fork(6.0, [None, Some(30.0)], false)]);
+        Observer::<2>::finish(&mut o).unwrap();
+        let written = o.render_forks();
+        let whole = CrackPath::new(&dir, settings()).resume(20).unwrap();
+        assert_eq!(whole.render_forks(), written);
+        let part = CrackPath::new(&dir, settings()).resume(15).unwrap();
+        assert_eq!(part.forks.len(), 1);
+        assert_eq!(part.forks[0].2.branches.len(), 2);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -10,7 +10,10 @@
 
 use super::csv::{push_number, quote};
 use super::observer::{Every, Observer, StepView};
-use crate::analysis::{branch_history, crack_speed, dissipation_rate, TipSample, TipTracker};
+use super::resume::{cannot_continue, rows_up_to};
+use crate::analysis::{
+    branch_history, crack_speed, dissipation_rate, CrackFront, Tip, TipSample, TipTracker,
+};
 use crate::atomic_file::write_atomic;
 use crate::math::Vector;
 use std::cell::RefCell;
@@ -147,6 +150,70 @@ impl<const D: usize> CrackTips<D> {
         s
     }
 
+    /// Continues after a restart at `step`: the samples up to `step` are read back from
+    /// `crack_tip.csv` (which holds every sample up to the checkpoint), so the speeds and the
+    /// report span the whole run. `positions` are the body's reference positions: a tip is a
+    /// node, found again by its position.
+    pub fn resume(mut self, step: u64, positions: &[Vector<D>]) -> io::Result<Self> {
+        let path = &self.tip_path;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| crate::atomic_file::with_path(e, "cannot read", path))?;
+        let invalid = |what: String| cannot_continue(path, what);
+        let per_branch = if D == 3 { 2 * D } else { D };
+        let tip_cells = per_branch * self.tracker.branches.len();
+        let unit = self.tracker.direction.normalize();
+        let key = |p: &Vector<D>| p.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+        let mut nodes = std::collections::HashMap::new();
+        for (i, p) in positions.iter().enumerate() {
+            nodes.entry(key(p)).or_insert(i);
+        }
+        for line in rows_up_to(&text, step, path)?.lines().skip(1) {
+            // Empty cells: no tip in that branch.
+            let cells = line
+                .split(',')
+                .map(|c| (!c.is_empty()).then(|| c.parse::<f64>()).transpose())
+                .collect::<Result<Vec<Option<f64>>, _>>();
+            let (time, sample_step, tips, dissipated) = match cells.as_deref() {
+                Ok([Some(t), Some(s), tips @ .., Some(e)]) if tips.len() == tip_cells => {
+                    (*t, *s, tips, *e)
+                }
+                _ => {
+                    return Err(invalid(format!(
+                        "expected time, step, {tip_cells} tip cells and the dissipated energy, found {line:?}"
+                    )))
+                }
+            };
+            let mut row = Vec::new();
+            for cells in tips.chunks(per_branch) {
+                let Some(v) = cells.iter().copied().collect::<Option<Vec<f64>>>() else {
+                    row.push(None);
+                    continue;
+                };
+                let position = Vector::<D>::from_iterator(v[..D].iter().copied());
+                let index = *nodes
+                    .get(&key(&position))
+                    .ok_or_else(|| invalid(format!("no node at the tip {:?} of {line:?}", v)))?;
+                let tip = Tip {
+                    index,
+                    position,
+                    projection: position.dot(&unit),
+                };
+                // The front's node count is not in the file, and nothing written reads it.
+                let front = (D == 3 && v[D..].iter().all(|x| !x.is_nan())).then(|| CrackFront {
+                    mean: Vector::<D>::from_iterator(v[D..].iter().copied()),
+                    extreme: tip,
+                    count: 0,
+                });
+                row.push(Some(TipSample { time, tip, front }));
+            }
+            self.times.push(time);
+            self.steps.push(sample_step as u64);
+            self.samples.push(row);
+            self.dissipated.push(dissipated);
+        }
+        Ok(self)
+    }
+
     /// Where `finish` leaves the run's crack report (for the run summary).
     pub fn report(&self) -> Rc<RefCell<Option<CrackReport>>> {
         Rc::clone(&self.report)
@@ -166,10 +233,12 @@ impl<const D: usize> CrackTips<D> {
                 }
             }
         }
+        header.push("damage_dissipation".to_string());
         let mut s = header.join(",");
         s.push('\n');
         let per_branch = if D == 3 { 2 * D } else { D };
-        for ((t, step), row) in self.times.iter().zip(&self.steps).zip(&self.samples) {
+        let rows = self.times.iter().zip(&self.steps).zip(&self.samples);
+        for (((t, step), row), dissipated) in rows.zip(&self.dissipated) {
             push_number(&mut s, *t);
             s.push(',');
             push_number(&mut s, *step as f64);
@@ -191,6 +260,8 @@ impl<const D: usize> CrackTips<D> {
                     }
                 }
             }
+            s.push(',');
+            push_number(&mut s, *dissipated);
             s.push('\n');
         }
         s
@@ -304,11 +375,12 @@ mod tests {
             vec![sample(2.0, 2.0), None],
             vec![sample(3.0, 3.0), None],
         ];
+        o.dissipated = vec![0.0, 0.5, 1.0, 1.5];
         Observer::<2>::finish(&mut o).unwrap();
         let tips = std::fs::read_to_string(dir.join("crack_tip.csv")).unwrap();
         assert_eq!(
             tips,
-            "time,step,crack_x,crack_y,b_x,b_y\n0,0,,,,\n1,10,1,0.5,,\n2,20,2,0.5,,\n3,30,3,0.5,,\n"
+            "time,step,crack_x,crack_y,b_x,b_y,damage_dissipation\n0,0,,,,,0\n1,10,1,0.5,,,0.5\n2,20,2,0.5,,,1\n3,30,3,0.5,,,1.5\n"
         );
         let speeds = std::fs::read_to_string(dir.join("crack_speed.csv")).unwrap();
         // Window 2 over three samples of branch "crack": one speed, 2/2 = 1, stamped at t = 2.
@@ -353,13 +425,14 @@ mod tests {
         o.times = vec![0.5];
         o.steps = vec![1];
         o.samples = vec![o.tracker.sample(0.5, &pos, &d)];
+        o.dissipated = vec![2.0];
         Observer::<3>::finish(&mut o).unwrap();
         let tips = std::fs::read_to_string(dir.join("crack_tip.csv")).unwrap();
         // Front within 1 of x = 2: (2, 0), (1, 0), (1, 1) → mean (4/3, 1/3, 0).
         let (m, n) = (4.0_f64 / 3.0, 1.0_f64 / 3.0);
         assert_eq!(
             tips,
-            format!("time,step,f_x,f_y,f_z,f_front_mean_x,f_front_mean_y,f_front_mean_z\n0.5,1,2,0,0,{m},{n},0\n")
+            format!("time,step,f_x,f_y,f_z,f_front_mean_x,f_front_mean_y,f_front_mean_z,damage_dissipation\n0.5,1,2,0,0,{m},{n},0,2\n")
         );
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -8,6 +8,7 @@ pub mod history;
 pub mod observer;
 pub mod progress;
 pub mod pvd;
+pub mod resume;
 pub mod snapshots;
 pub mod vtu;
 

@@ -69,6 +69,12 @@ pub trait Observer<const D: usize> {
     fn finish(&mut self) -> std::io::Result<()> {
         Ok(())
     }
+    /// Brings the files up to the last observed step, before a checkpoint is written (a
+    /// restart keeps what they hold up to the checkpoint's step). By default `finish`: the
+    /// writers rewrite their files whole, so finishing early is only a flush.
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.finish()
+    }
 }
 
 /// "Every n steps, and the last one" — the schedule shared by the writers.

@@ -25,6 +25,30 @@ impl PvdSeries {
         }
     }
 
+    /// The series of an interrupted run continued at simulation time `time`: the entries of
+    /// the `.pvd` at `path` up to `time` (none if there is no file yet). Nothing is written
+    /// until the next [`add`](Self::add).
+    pub fn resume(path: impl Into<PathBuf>, time: f64) -> io::Result<Self> {
+        let path = path.into();
+        let text = super::resume::read_if_present(&path)?;
+        let mut entries = Vec::new();
+        for line in text.lines().filter(|l| l.contains("<DataSet")) {
+            let parsed = attribute(line, "timestep")
+                .and_then(|t| t.parse::<f64>().ok())
+                .zip(attribute(line, "file").map(xml_unescape));
+            let Some((t, file)) = parsed else {
+                return Err(super::resume::cannot_continue(
+                    &path,
+                    format!("expected <DataSet timestep=\"…\" file=\"…\"/>, found {line:?}"),
+                ));
+            };
+            if t <= time {
+                entries.push((t, file));
+            }
+        }
+        Ok(Self { path, entries })
+    }
+
     /// Path of the `.pvd` file.
     pub fn path(&self) -> &Path {
         &self.path
@@ -67,6 +91,22 @@ fn xml_attr(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// The value of `name="…"` in an XML tag.
+fn attribute<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let key = format!(" {name}=\"");
+    let start = tag.find(&key)? + key.len();
+    let len = tag[start..].find('"')?;
+    Some(&tag[start..start + len])
+}
+
+/// Undoes `xml_attr`.
+fn xml_unescape(s: &str) -> String {
+    s.replace("&quot;", "\"")
+        .replace("&gt;", ">")
+        .replace("&lt;", "<")
+        .replace("&amp;", "&")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,6 +138,15 @@ mod tests {
         let t: f64 = ts[..ts.find('"').unwrap()].parse().unwrap();
         assert_eq!(t.to_bits(), t1.to_bits());
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1, "no temp file left");
+
+        // Resumed at t1 the series is the same; resumed before t1 it drops the second entry.
+        let mut resumed = PvdSeries::resume(&path, t1).unwrap();
+        assert_eq!(resumed.render(), expected);
+        resumed = PvdSeries::resume(&path, 1e-7).unwrap();
+        resumed.add(2e-7, "a&b.vtu").unwrap();
+        let again = PvdSeries::resume(&path, 1.0).unwrap();
+        assert_eq!(again.entries[1], (2e-7, "a&b.vtu".to_string()));
+        assert_eq!(again.entries.len(), 2);
         fs::remove_dir_all(&dir).unwrap();
     }
 }

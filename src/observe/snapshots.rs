@@ -21,10 +21,34 @@ impl Snapshots {
     /// Writes `dir/fields/step_NNNNNNNN.vtu`, the series `dir/fields.pvd` and the maps
     /// `output` asks for (see `FieldMaps`).
     pub fn new(dir: PathBuf, every: u64, output: &OutputDeck, title: &str) -> io::Result<Self> {
+        let series = PvdSeries::new(dir.join("fields.pvd"));
+        Self::with_series(dir, series, every, output, title)
+    }
+
+    /// The snapshots of a run continued at simulation time `time`: the series keeps its
+    /// entries up to `time`; later snapshots are written again.
+    pub fn resume(
+        dir: PathBuf,
+        time: f64,
+        every: u64,
+        output: &OutputDeck,
+        title: &str,
+    ) -> io::Result<Self> {
+        let series = PvdSeries::resume(dir.join("fields.pvd"), time)?;
+        Self::with_series(dir, series, every, output, title)
+    }
+
+    fn with_series(
+        dir: PathBuf,
+        series: PvdSeries,
+        every: u64,
+        output: &OutputDeck,
+        title: &str,
+    ) -> io::Result<Self> {
         std::fs::create_dir_all(dir.join("fields"))
             .map_err(|e| with_path(e, &dir.join("fields")))?;
         Ok(Snapshots {
-            series: PvdSeries::new(dir.join("fields.pvd")),
+            series,
             maps: FieldMaps::new(&dir, output, title)?,
             dir,
             every: Every(every),

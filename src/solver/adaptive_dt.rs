@@ -80,6 +80,21 @@ impl<const D: usize> AdaptiveDt<D> {
         }
     }
 
+    /// A controller continuing a run (from a checkpoint) that had taken `since_change` steps
+    /// since dt last changed and rejected `rejected`.
+    pub fn resumed(settings: AdaptiveDtSettings, since_change: u64, rejected: u64) -> Self {
+        AdaptiveDt {
+            since_change,
+            rejected,
+            ..Self::new(settings)
+        }
+    }
+
+    /// Committed steps since dt last changed (what a checkpoint keeps).
+    pub fn since_change(&self) -> u64 {
+        self.since_change
+    }
+
     /// Commits one velocity-Verlet step, retrying it with smaller time steps while a node loses
     /// more than N_b^m bonds (and dt·t_reduce ≥ t_min); then raises dt for the next step if
     /// the run has been quiet long enough. `sim.dt` is the step to try; on return it is the

@@ -142,7 +142,10 @@ fn tip_starts_at_the_notch_moves_forward_and_runs_below_the_rayleigh_speed() {
     let summary = run_in(&plate(TRACK), &out, 2);
 
     let (header, rows) = read_csv(&out.join("crack_tip.csv"));
-    assert_eq!(header, ["time", "step", "crack_x", "crack_y"]);
+    assert_eq!(
+        header,
+        ["time", "step", "crack_x", "crack_y", "damage_dissipation"]
+    );
     assert_eq!(rows[0][1], "0", "step 0 is sampled");
     assert_eq!(rows.last().unwrap()[1], summary.report.steps.to_string());
     let tips: Vec<(f64, f64, f64)> = rows
@@ -295,7 +298,15 @@ max = [8.0e-3, 2.0e-3]
     let (header, rows) = read_csv(&out.join("crack_tip.csv"));
     assert_eq!(
         header,
-        ["time", "step", "upper_x", "upper_y", "lower_x", "lower_y"]
+        [
+            "time",
+            "step",
+            "upper_x",
+            "upper_y",
+            "lower_x",
+            "lower_y",
+            "damage_dissipation"
+        ]
     );
     for r in rows.iter().filter(|r| !r[2].is_empty()) {
         assert!(num(&r[3]) >= 2.0e-3, "upper tip below its box: {r:?}");
@@ -393,7 +404,8 @@ window = 3
             "crack_z",
             "crack_front_mean_x",
             "crack_front_mean_y",
-            "crack_front_mean_z"
+            "crack_front_mean_z",
+            "damage_dissipation"
         ]
     );
     let with_tip: Vec<&Vec<String>> = rows.iter().filter(|r| !r[2].is_empty()).collect();

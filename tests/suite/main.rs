@@ -26,6 +26,7 @@ mod kernels;
 mod kirsch;
 mod patch;
 mod quasi_static;
+mod restart;
 mod separation_work;
 mod softening;
 mod wave_speed;

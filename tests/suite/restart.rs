@@ -1,0 +1,376 @@
+//! Checkpoint and restart: a run stopped after a checkpoint and continued with `--restart`
+//! leaves the same files, byte for byte, as the run that never stopped (for any thread
+//! counts); a checkpoint from another deck or program, or a damaged one, is refused.
+
+use peridyn::deck::LoadedDeck;
+use peridyn::run::{run, run_with, RunControl, RunError, RunOptions};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A notched 8 mm × 4 mm PMB plate (Δx = 0.1 mm, δ = 3Δx, 3200 nodes) whose grips are pulled
+/// apart at 20 m/s each: the crack runs from step ≈ 150 on. `solver` is appended to
+/// `[solver]`, `output` to `[output]`.
+fn deck_text(youngs_modulus: f64, solver: &str, output: &str) -> String {
+    format!(
+        r#"
+version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+no_fail = ["top", "bottom"]
+
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [0.008, 0.004] }}
+spacing = 0.1e-3
+horizon_ratio = 3.0
+
+[material]
+type = "pmb"
+density = 1180.0
+youngs_modulus = {youngs_modulus:e}
+fracture_energy = 300.0
+
+[[node_sets]]
+name = "top"
+region = {{ type = "rectangle", min = [-1.0, 0.0037], max = [1.0, 1.0] }}
+[[node_sets]]
+name = "bottom"
+region = {{ type = "rectangle", min = [-1.0, -1.0], max = [1.0, 0.0003] }}
+
+[[precracks]]
+type = "segment"
+start = [-0.001, 0.002]
+end = [0.002, 0.002]
+
+[[boundary_conditions]]
+set = "top"
+kind = "velocity"
+component = "y"
+value = 20.0
+[[boundary_conditions]]
+set = "bottom"
+kind = "velocity"
+component = "y"
+value = -20.0
+
+[solver]
+type = "explicit"
+{solver}
+
+[output]
+history_interval = 7
+snapshots = 4
+png = false
+plots = false
+{output}
+"#
+    )
+}
+
+/// A fresh folder for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("restart-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `text` as `dir/name` and loads it.
+fn load(dir: &Path, name: &str, text: &str) -> LoadedDeck {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn options(out_dir: &Path, threads: Option<usize>) -> RunOptions {
+    RunOptions {
+        out_dir: out_dir.to_path_buf(),
+        threads,
+        quiet: true,
+    }
+}
+
+/// Every file under `dir` (relative path → bytes) except the wall-clock summary.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.file_name().unwrap() != "summary.txt" {
+                let rel = p.strip_prefix(dir).unwrap().display().to_string();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+fn assert_same_files(expected: &Path, found: &Path) {
+    let (a, b) = (files(expected), files(found));
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "the same files"
+    );
+    for (name, bytes) in &a {
+        assert!(bytes == &b[name], "{name} differs after the restart");
+    }
+}
+
+/// Runs `ld` whole into `whole/`, then into `parts/` stopped after `stop` (with 1 thread) and
+/// continued (with 2), and asserts the two folders hold the same files byte for byte.
+fn assert_restart_matches(ld: &LoadedDeck, dir: &Path, stop: u64) {
+    let (whole, parts) = (dir.join("whole"), dir.join("parts"));
+    let summary = run(ld, &options(&whole, None)).unwrap();
+    assert!(summary.broken_bonds > 0, "the plate must fracture");
+    let stopped = run_with(
+        ld,
+        &options(&parts, Some(1)),
+        &RunControl {
+            stop_after_step: Some(stop),
+            ..RunControl::default()
+        },
+    );
+    assert!(
+        matches!(stopped, Err(RunError::Stopped(s)) if s == stop),
+        "{stopped:?}"
+    );
+    let history = std::fs::read_to_string(parts.join("history.csv")).unwrap();
+    let rows_at_stop = history.lines().count();
+    let restart = RunControl {
+        restart: true,
+        ..RunControl::default()
+    };
+    let continued = run_with(ld, &options(&parts, Some(2)), &restart).unwrap();
+    assert_eq!(continued.broken_bonds, summary.broken_bonds);
+    assert_eq!(continued.crack, summary.crack);
+    let full_rows = std::fs::read_to_string(whole.join("history.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert!(
+        rows_at_stop < full_rows,
+        "the stop must come before the end ({rows_at_stop} of {full_rows} rows)"
+    );
+    assert_same_files(&whole, &parts);
+}
+
+#[test]
+fn explicit_run_with_crack_tip_continued_after_a_stop_is_byte_identical() {
+    let dir = scratch("explicit");
+    // Checkpoints at the snapshots (0, 150, 300, …) and every 100 steps; stopped at 230, the
+    // run continues from step 200, after the crack started. The crack tip's samples (and so
+    // its speeds) span the restart, and so do the crack path's forks.
+    let tip = "checkpoint_interval = 100\n[analysis.crack_tip]\ndirection = [1.0, 0.0]\ninterval = 10\nwindow = 3\n[analysis.crack_path]\ninterval = 10";
+    let ld = load(&dir, "plate.toml", &deck_text(3.09e9, "steps = 600", tip));
+    assert_restart_matches(&ld, &dir, 230);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn adaptive_run_continued_after_a_stop_is_byte_identical() {
+    let dir = scratch("adaptive");
+    let ld = load(
+        &dir,
+        "adaptive.toml",
+        &deck_text(
+            3.09e9,
+            "steps = 600\n[solver.adaptive]\nmax_broken_per_node = 2\nmin_dt = 1e-12",
+            "",
+        ),
+    );
+    assert_restart_matches(&ld, &dir, 320);
+    // The time step did change (the controller's state crossed the restart).
+    let history = std::fs::read_to_string(dir.join("whole/history.csv")).unwrap();
+    let dts: std::collections::BTreeSet<&str> = history
+        .lines()
+        .skip(2)
+        .map(|l| l.split(',').nth(8).unwrap())
+        .collect();
+    assert!(dts.len() > 1, "dt never changed: {dts:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs the plate into `dir/run` and stops it after step 200.
+fn stopped_run(dir: &Path) -> (LoadedDeck, PathBuf) {
+    let ld = load(dir, "plate.toml", &deck_text(3.09e9, "steps = 400", ""));
+    let out = dir.join("run");
+    let stop = RunControl {
+        stop_after_step: Some(200),
+        ..RunControl::default()
+    };
+    let stopped = run_with(&ld, &options(&out, None), &stop);
+    assert!(
+        matches!(stopped, Err(RunError::Stopped(200))),
+        "{stopped:?}"
+    );
+    (ld, out)
+}
+
+fn restart_error(ld: &LoadedDeck, out: &Path) -> String {
+    let restart = RunControl {
+        restart: true,
+        ..RunControl::default()
+    };
+    match run_with(ld, &options(out, None), &restart) {
+        Ok(_) => panic!("the restart must be refused"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn a_checkpoint_of_another_deck_is_refused_naming_both() {
+    let dir = scratch("other-deck");
+    let (_, out) = stopped_run(&dir);
+    let before = files(&out);
+    let other = load(&dir, "stiffer.toml", &deck_text(3.5e9, "steps = 400", ""));
+    let msg = restart_error(&other, &out);
+    assert!(msg.contains("written by a different deck"), "{msg}");
+    assert!(
+        msg.contains("plate.toml") && msg.contains("stiffer.toml"),
+        "{msg}"
+    );
+    assert!(msg.contains(&out.display().to_string()), "{msg}");
+    assert!(
+        files(&out) == before,
+        "a refused restart leaves the folder as it was"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_missing_damaged_or_foreign_checkpoint_is_refused() {
+    let dir = scratch("damaged");
+    let (ld, out) = stopped_run(&dir);
+    let path = out.join("checkpoint.bin");
+    let good = std::fs::read(&path).unwrap();
+
+    let mut flipped = good.clone();
+    let k = flipped.len() / 2;
+    flipped[k] ^= 0x40;
+    std::fs::write(&path, &flipped).unwrap();
+    let msg = restart_error(&ld, &out);
+    assert!(
+        msg.contains("corrupt") && msg.contains("checkpoint.bin"),
+        "{msg}"
+    );
+
+    std::fs::write(&path, &good[..good.len() - 100]).unwrap();
+    let msg = restart_error(&ld, &out);
+    assert!(msg.contains("truncated"), "{msg}");
+
+    // Another peridyn version, same length so only the version differs.
+    let version = env!("CARGO_PKG_VERSION").as_bytes();
+    let at = good
+        .windows(version.len())
+        .position(|w| w == version)
+        .unwrap();
+    let mut foreign = good.clone();
+    foreign[at..at + version.len()].fill(b'9');
+    std::fs::write(&path, &foreign).unwrap();
+    let msg = restart_error(&ld, &out);
+    assert!(msg.contains("written by peridyn 9"), "{msg}");
+
+    std::fs::write(&path, b"not a checkpoint").unwrap();
+    let msg = restart_error(&ld, &out);
+    assert!(msg.contains("not a peridyn checkpoint"), "{msg}");
+
+    std::fs::remove_file(&path).unwrap();
+    let msg = restart_error(&ld, &out);
+    assert!(
+        msg.contains("no checkpoint") && msg.contains("checkpoint.bin"),
+        "{msg}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn quasi_static_restart_is_refused_and_writes_no_checkpoint() {
+    let dir = scratch("quasi-static");
+    let text = deck_text(3.09e9, "", "").replace(
+        "type = \"explicit\"\n",
+        "type = \"quasi_static\"\nload_steps = 2\n",
+    );
+    let text = text
+        .replace("kind = \"velocity\"", "kind = \"displacement\"")
+        .replace("value = 20.0", "value = 1e-6")
+        .replace("value = -20.0", "value = -1e-6");
+    let ld = load(&dir, "qs.toml", &text);
+    let out = dir.join("run");
+    run(&ld, &options(&out, None)).unwrap();
+    assert!(!out.join("checkpoint.bin").exists());
+    let msg = restart_error(&ld, &out);
+    assert!(
+        msg.contains("quasi-static") && msg.contains("not supported yet"),
+        "{msg}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn checkpoint_false_writes_none() {
+    let dir = scratch("off");
+    let ld = load(
+        &dir,
+        "plate.toml",
+        &deck_text(3.09e9, "steps = 20", "checkpoint = false"),
+    );
+    let out = dir.join("run");
+    run(&ld, &options(&out, None)).unwrap();
+    assert!(out.join("history.csv").exists());
+    assert!(!out.join("checkpoint.bin").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The command line: a process killed mid-run (after a checkpoint), continued with
+/// `--restart DIR`, ends with the files of the run that was not killed.
+#[test]
+fn killed_process_continues_with_restart_dir() {
+    let dir = scratch("killed");
+    let deck = dir.join("plate.toml");
+    std::fs::write(
+        &deck,
+        deck_text(3.09e9, "steps = 1500", "checkpoint_interval = 25"),
+    )
+    .unwrap();
+    let exe = env!("CARGO_BIN_EXE_peridyn");
+    let peridyn = |args: &[&str]| {
+        let status = std::process::Command::new(exe)
+            .arg("run")
+            .arg(&deck)
+            .args(args)
+            .arg("-q")
+            .stdout(std::process::Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success(), "peridyn {args:?}: {status}");
+    };
+    let whole = dir.join("whole");
+    peridyn(&["-o", whole.to_str().unwrap()]);
+
+    let killed = dir.join("killed");
+    let mut child = std::process::Command::new(exe)
+        .arg("run")
+        .arg(&deck)
+        .args(["-q", "-o", killed.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Killed once the history (flushed before every checkpoint) passes step 100.
+    let history = killed.join("history.csv");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&history).map_or(true, |h| h.lines().count() < 16) {
+        assert!(started.elapsed().as_secs() < 60, "no checkpoint after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    peridyn(&["--restart", killed.to_str().unwrap()]);
+    assert_same_files(&whole, &killed);
+    let _ = std::fs::remove_dir_all(&dir);
+}
