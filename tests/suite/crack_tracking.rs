@@ -203,6 +203,12 @@ fn tip_starts_at_the_notch_moves_forward_and_runs_below_the_rayleigh_speed() {
     }
     let reported = crack.branches[0].mean_speed.unwrap();
     assert!((reported - mean).abs() <= 1e-9 * mean);
+    // A running mode-I crack: well above creep, below c_R (seed 002: 0.59 c_R).
+    assert!(
+        (0.4..1.0).contains(&(mean / crack.rayleigh)),
+        "mean speed {:.3} c_R",
+        mean / crack.rayleigh
+    );
     eprintln!(
         "mean crack speed {mean:.1} m/s = {:.3} c_R (c_R = {:.1} m/s)",
         mean / crack.rayleigh,
