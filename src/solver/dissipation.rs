@@ -33,11 +33,14 @@ impl DissipationTracker {
     }
 
     /// Σ_i V_i (W_i before − W_i after) over the nodes whose bond status changed since
-    /// `remember`. `energy(i, status)` is W_i at the booking's positions with that status. Summed per node chunk in a fixed order: the same
+    /// `remember`. `energy(i, status)` is W_i at the booking's positions with that status.
+    /// Chunks whose nodes broke no own half (`broke_in_chunk`) are skipped: a node's energy
+    /// depends on its own halves only (an entry's other-half bit changes nothing in W_i). Summed per node chunk in a fixed order: the same
     /// bits for any number of threads.
     pub fn released<const D: usize>(
         &self,
         chunks: &[Range<usize>],
+        broke_in_chunk: &[u64],
         bonds: &Bonds,
         volumes: &[f64],
         state: &State<D>,
@@ -46,7 +49,9 @@ impl DissipationTracker {
         let (old, new) = (&self.status[..], &state.status[..]);
         let per_chunk: Vec<f64> = chunks
             .par_iter()
-            .map(|nodes| {
+            .zip(broke_in_chunk)
+            .filter(|(_, &broke)| broke > 0)
+            .map(|(nodes, _)| {
                 nodes
                     .clone()
                     .filter(|&i| bonds.family(i).any(|b| old[b] != new[b]))

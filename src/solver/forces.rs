@@ -40,6 +40,8 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     chunks: Vec<Range<usize>>,
     /// Books the strain energy each evaluation's damage releases (`state.dissipated_damage`).
     dissipation: DissipationTracker,
+    /// Own halves the last evaluation broke in each node chunk.
+    broke_in_chunk: Vec<u64>,
 }
 
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
@@ -217,6 +219,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             points: vec![M::Point::default(); n],
             chunks,
             dissipation: DissipationTracker::default(),
+            broke_in_chunk: Vec::new(),
         })
     }
 
@@ -266,11 +269,17 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             } else {
                 &positions
             };
-            state.dissipated_damage +=
-                tracker.released(&self.chunks, bonds, &body.volumes, state, |i, status| {
+            state.dissipated_damage += tracker.released(
+                &self.chunks,
+                &self.broke_in_chunk,
+                bonds,
+                &body.volumes,
+                state,
+                |i, status| {
                     let record = (status, &state.history[..]);
                     self.node_energy_with(body, bonds, at, record, i)
-                });
+                },
+            );
         }
         self.dissipation = tracker;
         broke
@@ -355,7 +364,11 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let no_fail: &[bool] = &body.no_fail;
         let hw = history_words::<D, M, Dm>();
         debug_assert_eq!(state.history.len(), bonds.len() * hw);
-        let mut newly_broken = 0u64;
+        // Own halves broken per node chunk (the dissipation booking skips quiet chunks).
+        let mut per_chunk = vec![0u64; self.chunks.len()];
+        let mut add = |counts: Vec<u64>| {
+            per_chunk.iter_mut().zip(counts).for_each(|(a, c)| *a += c);
+        };
         // The AVX2 kernels, where the model has them: uniform grid, in 3D one critical stretch,
         // one softening law or one critical energy (with a central model's two-word work
         // record), in 2D one critical energy, x86-64 with AVX2, and neighbour indices known to
@@ -403,7 +416,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 damage,
                 bonds,
             };
-            newly_broken += chunks
+            add(chunks
                 .par_iter()
                 .zip(status_chunks)
                 .zip(history_chunks)
@@ -444,7 +457,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     }
                     broke
                 })
-                .sum::<u64>();
+                .collect::<Vec<u64>>());
         }
 
         let status_chunks = split_at_ends(&mut state.status, bond_ends());
@@ -462,7 +475,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         };
         // A two-pass model decided stretch-based failure in its pre-pass.
         let decide = !M::NEEDS_PREPASS;
-        newly_broken += self
+        add(self
             .chunks
             .par_iter()
             .zip(status_chunks)
@@ -576,11 +589,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 }
                 broke
             })
-            .sum::<u64>();
+            .collect::<Vec<u64>>());
 
         if Dm::ON_WORK && !M::CENTRAL {
             state.previous.clone_from(&state.current);
         }
+        let newly_broken = per_chunk.iter().sum::<u64>();
+        self.broke_in_chunk = per_chunk;
         state.broken += newly_broken;
         newly_broken
     }
