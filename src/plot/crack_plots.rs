@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::curve::write_curves_png;
+use super::curve::write_named_curves_png;
 use super::damage_map::PlotError;
 
 /// A CSV with a header; cells are kept as text (tip files leave cells empty before a branch
@@ -67,11 +67,7 @@ pub fn write_crack_plots(run_dir: &Path, dir: &Path) -> Result<Vec<PathBuf>, Plo
                 return Ok::<(), PlotError>(());
             }
             let path = dir.join(file);
-            let refs: Vec<(&str, &[(f64, f64)])> = series
-                .iter()
-                .map(|(n, p)| (n.as_str(), p.as_slice()))
-                .collect();
-            write_curves_png(&path, title, x, y, &refs)?;
+            write_named_curves_png(&path, title, x, y, &series)?;
             written.push(path);
             Ok(())
         };

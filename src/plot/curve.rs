@@ -28,6 +28,21 @@ const COLOURS: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
+/// `write_curves_png` for series that own their names and points.
+pub fn write_named_curves_png(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+) -> Result<(), PlotError> {
+    let refs: Vec<(&str, &[(f64, f64)])> = series
+        .iter()
+        .map(|(n, p)| (n.as_str(), p.as_slice()))
+        .collect();
+    write_curves_png(path, title, x_label, y_label, &refs)
+}
+
 /// Writes a line plot of `series` (name, points) with a legend, atomically.
 ///
 /// Axis ranges cover all finite points; non-finite points break a line.

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::curve::write_curves_png;
+use super::curve::write_named_curves_png;
 use super::damage_map::PlotError;
 
 /// A history table: column names and rows of numbers.
@@ -80,11 +80,7 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
                 return Ok(());
             }
             let path = dir.join(file);
-            let refs: Vec<(&str, &[(f64, f64)])> = series
-                .iter()
-                .map(|(n, p)| (n.as_str(), p.as_slice()))
-                .collect();
-            write_curves_png(&path, title, x, y, &refs)?;
+            write_named_curves_png(&path, title, x, y, &series)?;
             written.push(path);
             Ok::<(), PlotError>(())
         };

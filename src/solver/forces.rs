@@ -42,6 +42,8 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     dissipation: DissipationTracker,
     /// Own halves the last evaluation broke in each node chunk.
     broke_in_chunk: Vec<u64>,
+    /// Mid-step positions of the booking (reused buffer).
+    mid_step: Vec<Vector<D>>,
 }
 
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
@@ -220,6 +222,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             chunks,
             dissipation: DissipationTracker::default(),
             broke_in_chunk: Vec::new(),
+            mid_step: Vec::new(),
         })
     }
 
@@ -254,20 +257,22 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         tracker.remember(state);
         let broke = self.evaluate(body, bonds, state);
         if broke > 0 {
-            let positions: Vec<Vector<D>> = if half_dt == 0.0 {
-                Vec::new()
-            } else {
-                state
-                    .current
-                    .par_iter()
-                    .zip(&state.v)
-                    .map(|(y, v)| y - v * half_dt)
-                    .collect()
-            };
+            // The mid-step positions, in a buffer kept between evaluations.
+            let mut mid_step = std::mem::take(&mut self.mid_step);
+            if half_dt != 0.0 {
+                mid_step.clear();
+                mid_step.par_extend(
+                    state
+                        .current
+                        .par_iter()
+                        .zip(&state.v)
+                        .map(|(y, v)| y - v * half_dt),
+                );
+            }
             let at = if half_dt == 0.0 {
                 &state.current
             } else {
-                &positions
+                &mid_step
             };
             state.dissipated_damage += tracker.released(
                 &self.chunks,
@@ -280,6 +285,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     self.node_energy_with(body, bonds, at, record, i)
                 },
             );
+            self.mid_step = mid_step;
         }
         self.dissipation = tracker;
         broke
