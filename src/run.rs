@@ -4,19 +4,22 @@
 use crate::checkpoint::{CheckpointError, Checkpoints, DriverState, Origin};
 use crate::damage::Damage;
 use crate::deck::build::{
-    build_constitution, build_model, solver_settings, Constitution, MaterialChoice, MaterialReport,
-    Model,
+    build_constitution, build_model, settings_of, solver_settings, Constitution, MaterialChoice,
+    MaterialReport, Model, SolverSettings,
 };
+use crate::deck::stages::{stage_name, StagePlan, StageReport};
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
+use crate::math::Vector;
 use crate::observe::crack_path::{CrackPath, PathReport, PathSettings};
 use crate::observe::crack_tip::{CrackReport, CrackTips};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
 use crate::observe::resume::ResumedCsv;
 use crate::observe::snapshots::Snapshots;
-use crate::observe::{Every, Observer, StepView};
+use crate::observe::stage_record::StageRecord;
+use crate::observe::{Every, Observer, StageStart, StepView};
 use crate::solver::Fields;
 use crate::solver::{
     AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation, StepError,
@@ -99,6 +102,10 @@ pub struct ModelReport {
     pub grid: crate::grid::GridReport,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub surface_correction: Option<SurfaceReport>,
+    /// A staged run's stages, the deck's own first (then `steps` and `end_time` above are
+    /// their sums, the other solver fields the first stage's); empty for a run of one stage.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub stages: Vec<StageReport>,
 }
 
 impl std::fmt::Display for ModelReport {
@@ -166,7 +173,19 @@ impl std::fmt::Display for ModelReport {
                 writeln!(f, "                 note: {note}")?;
             }
         }
-        if self.solver == "explicit" {
+        if !self.stages.is_empty() {
+            for stage in &self.stages {
+                writeln!(f, "{stage}")?;
+            }
+            writeln!(
+                f,
+                "run              {} steps in {} stages, stable time step {:.4e} s, t_end = {:.4e}",
+                self.steps,
+                self.stages.len(),
+                self.dt_stable,
+                self.end_time
+            )?;
+        } else if self.solver == "explicit" {
             writeln!(
                 f,
                 "time step        dt = {:.4e} s (stable estimate {:.4e} s, ratio {:.3})",
@@ -315,6 +334,9 @@ fn run_dim<const D: usize>(
 
 /// Why a deck's run cannot be continued from a checkpoint (then it writes none).
 fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
+    if !deck.stages.is_empty() {
+        return Some("a staged run (the stage in progress is not checkpointed)");
+    }
     solver_settings(deck)
         .quasi_static
         .is_some()
@@ -460,13 +482,57 @@ pub fn prepare<const D: usize, M: Material<D>>(
         materials: reports,
         grid,
         surface_correction: surface,
+        stages: Vec::new(),
     };
+    let report = with_stages(ld, report, &settings)?;
     Ok((sim, report))
+}
+
+/// A staged deck's report: each stage's, and the totals.
+fn with_stages(
+    ld: &LoadedDeck,
+    mut report: ModelReport,
+    first: &SolverSettings,
+) -> Result<ModelReport, RunError> {
+    let deck = &ld.deck;
+    if deck.stages.is_empty() {
+        return Ok(report);
+    }
+    let mut stages = vec![StageReport {
+        name: stage_name(deck, 0),
+        solver: if first.quasi_static.is_some() {
+            "quasi-static".into()
+        } else {
+            "explicit".into()
+        },
+        steps: report.steps,
+        dt: report.dt,
+        duration: match (&first.adaptive, first.end_time) {
+            (Some(_), Some(end)) => end,
+            _ => report.end_time,
+        },
+    }];
+    for (k, stage) in deck.stages.iter().enumerate() {
+        let at = format!("stages[{k}].");
+        stages.push(
+            StageReport::new(
+                stage_name(deck, k + 1),
+                &settings_of(&stage.solver),
+                report.dt_stable,
+                &at,
+            )
+            .map_err(|issue| ld.locate(vec![issue]))?,
+        );
+    }
+    report.steps = stages.iter().map(|s| s.steps).sum();
+    report.end_time = stages.iter().map(|s| s.duration).sum();
+    report.stages = stages;
+    Ok(report)
 }
 
 fn run_model<const D: usize, M: Material<D>>(
     ld: &LoadedDeck,
-    model: Model<D>,
+    mut model: Model<D>,
     material: M,
     rest: DamageAndReports,
     opts: &RunOptions,
@@ -479,6 +545,7 @@ fn run_model<const D: usize, M: Material<D>>(
     if let (true, Some(what)) = (control.restart, unsupported) {
         return Err(CheckpointError::Unsupported(what).into());
     }
+    let plans = std::mem::take(&mut model.stages);
     let (mut sim, report) = prepare(ld, model, material, rest)?;
     let resolved = resolved_deck(ld)?;
     let origin = Origin::new(&resolved, &ld.file);
@@ -524,8 +591,10 @@ fn run_model<const D: usize, M: Material<D>>(
         deck.title.clone()
     };
     let openings = opening_nodes(&sim.body, &deck.output.openings);
+    let staged = !plans.is_empty();
     let history = |path: &std::path::Path| -> Box<dyn Observer<D>> {
-        Box::new(History::new::<D>(path, history_every, &sets).with_openings(&openings))
+        let h = History::new::<D>(path, history_every, &sets).with_openings(&openings);
+        Box::new(if staged { h.with_stages() } else { h })
     };
     let history_path = out.join("history.csv");
     let (output, step, time) = (&deck.output, sim.state.step, sim.state.time);
@@ -545,6 +614,15 @@ fn run_model<const D: usize, M: Material<D>>(
         Box::new(snapshots),
         Box::new(Progress::new(report.steps, opts.quiet)),
     ];
+    if staged {
+        // Energies at each stage's end; the profile along the crack's direction (x by default).
+        let direction = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
+            Some(tip) => crate::math::vector_from_slice::<D>(&tip.direction),
+            None => Vector::<D>::from_fn(|k, _| if k == 0 { 1.0 } else { 0.0 }),
+        };
+        let bin = sim.body.min_cell_size();
+        observers.push(Box::new(StageRecord::new(out, direction, bin)));
+    }
     let crack = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         Some(tip) => {
             let mut observer = crack_tips(deck, tip, &sim, &report, out);
@@ -586,14 +664,12 @@ fn run_model<const D: usize, M: Material<D>>(
         checkpoints,
         stop_after: control.stop_after_step,
         resume,
+        final_stage: !staged,
     };
-    let result = match (settings.quasi_static, settings.adaptive) {
-        (Some(qs), _) => drive_quasi_static(&mut sim, qs, report.steps, watch.observers),
-        (None, Some(a)) => {
-            let adaptive = a.settings(sim.dt);
-            adaptive_loop(&mut sim, adaptive, report.end_time, &mut watch)
-        }
-        (None, None) => explicit_loop(&mut sim, report.steps, &mut watch),
+    let result = if staged {
+        run_stages(&mut sim, settings, &report, plans, &mut watch)
+    } else {
+        run_stage(&mut sim, settings, &report, &mut watch)
     };
     // A stop stands for a kill: the files stay as the last flush left them.
     if !matches!(result, Err(RunError::Stopped(_))) {
@@ -735,6 +811,87 @@ fn crack_path<const D: usize>(
     )
 }
 
+/// Runs the deck's stages one after the other: each starts from the state the one before
+/// left (the clock runs on), with its own boundary conditions, loads, no-fail sets, solver and
+/// history interval; a quasi-static stage starts at rest.
+fn run_stages<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    first: SolverSettings,
+    report: &ModelReport,
+    plans: Vec<StagePlan<D>>,
+    watch: &mut Watch<D>,
+) -> Result<(), RunError> {
+    let count = plans.len() + 1;
+    watch.final_stage = count == 1;
+    run_stage(sim, first, &report.stages[0], watch)?;
+    for (k, plan) in plans.into_iter().enumerate() {
+        let index = k + 1;
+        let stage = &report.stages[index];
+        sim.body.no_fail = plan.no_fail;
+        if plan.settings.quasi_static.is_some() {
+            sim.state.v.iter_mut().for_each(|v| *v = Vector::zeros());
+        }
+        sim.dt = stage.dt;
+        sim.set_loading(plan.loading)?;
+        let start = StageStart {
+            index,
+            history_interval: match plan.history_interval {
+                0 => u64::MAX,
+                k => k,
+            },
+        };
+        for o in watch.observers.iter_mut() {
+            o.begin_stage(&start);
+        }
+        watch.final_stage = index + 1 == count;
+        run_stage(sim, plan.settings, stage, watch)?;
+    }
+    Ok(())
+}
+
+/// One stage with its solver, from the current step and time: `stage` gives its steps and
+/// duration (a `ModelReport` or `StageReport`).
+fn run_stage<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    settings: SolverSettings,
+    stage: &impl StageLength,
+    watch: &mut Watch<D>,
+) -> Result<(), RunError> {
+    let (step, time) = (sim.state.step, sim.state.time);
+    match (settings.quasi_static, settings.adaptive) {
+        (Some(qs), _) => quasi_static_loop(sim, qs, stage.steps(), watch),
+        (None, Some(a)) => {
+            let adaptive = a.settings(sim.dt);
+            adaptive_loop(sim, adaptive, time + stage.duration(), watch)
+        }
+        (None, None) => explicit_loop(sim, step + stage.steps(), watch),
+    }
+}
+
+/// How long a stage runs.
+trait StageLength {
+    fn steps(&self) -> u64;
+    fn duration(&self) -> f64;
+}
+
+impl StageLength for ModelReport {
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+    fn duration(&self) -> f64 {
+        self.end_time
+    }
+}
+
+impl StageLength for StageReport {
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+    fn duration(&self) -> f64 {
+        self.duration
+    }
+}
+
 /// What the explicit loops do with each committed step besides stepping: offer it to the
 /// observers, write the checkpoint that falls on it, stop where asked.
 struct Watch<'a, const D: usize> {
@@ -744,6 +901,8 @@ struct Watch<'a, const D: usize> {
     /// Continuing from a checkpoint (whose step the observers saw before the interruption)
     /// with the driver state it kept.
     resume: Option<DriverState>,
+    /// The stage in progress is the run's last: its end is the end of the run.
+    final_stage: bool,
 }
 
 impl<'a, const D: usize> Watch<'a, D> {
@@ -754,16 +913,19 @@ impl<'a, const D: usize> Watch<'a, D> {
             checkpoints: None,
             stop_after: None,
             resume: None,
+            final_stage: true,
         }
     }
 
+    /// Offers a committed step; `stage_end`: it ends the stage (and the run, in the last).
     fn commit<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
-        last: bool,
+        stage_end: bool,
         driver: DriverState,
     ) -> Result<(), RunError> {
-        offer(sim, self.observers, last)?;
+        let last = stage_end && self.final_stage;
+        offer(sim, self.observers, last, stage_end)?;
         let step = sim.state.step;
         if let Some(c) = self.checkpoints.as_ref().filter(|c| c.wants(step, last)) {
             let started = Instant::now();
@@ -790,6 +952,7 @@ pub fn drive<const D: usize, M: Material<D>>(
     explicit_loop(sim, steps, &mut Watch::observers(observers))
 }
 
+/// Fixed steps until step `steps` (counted from the run's start).
 fn explicit_loop<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     steps: u64,
@@ -799,7 +962,7 @@ fn explicit_loop<const D: usize, M: Material<D>>(
         next_dt: sim.dt,
         ..DriverState::default()
     };
-    if watch.resume.is_none() {
+    if watch.resume.is_none() && sim.state.step == 0 {
         watch.commit(sim, steps == 0, driver(sim))?;
     }
     for k in sim.state.step + 1..=steps {
@@ -844,7 +1007,7 @@ fn adaptive_loop<const D: usize, M: Material<D>>(
         since_change: c.since_change(),
         rejected: c.rejected,
     };
-    if watch.resume.is_none() {
+    if watch.resume.is_none() && sim.state.step == 0 {
         watch.commit(sim, end_time <= slack, driver(sim, &controller))?;
     }
     let mut k = sim.state.step;
@@ -870,35 +1033,51 @@ pub fn drive_quasi_static<const D: usize, M: Material<D>>(
     load_steps: u64,
     observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
-    let increment = sim.dt;
+    quasi_static_loop(sim, settings, load_steps, &mut Watch::observers(observers))
+}
+
+fn quasi_static_loop<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    settings: QuasiStaticSettings,
+    load_steps: u64,
+    watch: &mut Watch<D>,
+) -> Result<(), RunError> {
+    let (increment, start) = (sim.dt, sim.state.time);
     let mut solver = QuasiStatic::new(sim, settings, increment);
-    offer(sim, observers, load_steps == 0)?;
+    if sim.state.step == 0 {
+        watch.commit(sim, load_steps == 0, DriverState::default())?;
+    }
     for k in 1..=load_steps {
         // The target from k, not by summing increments: no drift over many steps.
-        let target = k as f64 * increment;
+        let target = start + k as f64 * increment;
         while sim.state.time < target {
             solver.advance(sim, target)?;
             sim.check_finite()?;
-            offer(sim, observers, k == load_steps && sim.state.time >= target)?;
+            let stage_end = k == load_steps && sim.state.time >= target;
+            watch.commit(sim, stage_end, DriverState::default())?;
         }
     }
     Ok(())
 }
 
+/// Offers a committed step to the observers that want it; every observer's schedule
+/// includes the last step of each stage (`stage_end`) as it does the run's (`last`).
 fn offer<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     observers: &mut [Box<dyn Observer<D>>],
     last: bool,
+    stage_end: bool,
 ) -> Result<(), RunError> {
     let step = sim.state.step;
-    if !observers.iter().any(|o| o.wants(step, last)) {
+    let wanted = last || stage_end;
+    if !observers.iter().any(|o| o.wants(step, wanted)) {
         return Ok(());
     }
     let started = Instant::now();
     {
         let view = StepView::new(&*sim as &dyn Fields<D>, last);
         for o in observers.iter_mut() {
-            if o.wants(step, last) {
+            if o.wants(step, wanted) {
                 o.observe(&view)?;
             }
         }
@@ -912,6 +1091,9 @@ fn resolved_deck(ld: &LoadedDeck) -> Result<String, RunError> {
     // A point-cloud or mesh path is made absolute so the resolved deck runs from the results folder.
     let mut resolved = ld.deck.clone();
     resolved.output.history_interval = Some(ld.deck.history_interval());
+    for (k, stage) in resolved.stages.iter_mut().enumerate() {
+        stage.history_interval = Some(ld.deck.stage_history_interval(k + 1));
+    }
     if let crate::deck::schema::Discretization::PointCloud { file, .. }
     | crate::deck::schema::Discretization::Gmsh { file, .. } = &mut resolved.discretization
     {

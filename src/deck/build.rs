@@ -15,7 +15,7 @@ use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNod
 use crate::discretize::gmsh::read_gmsh;
 use crate::discretize::{lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
-use crate::loading::{BoundaryCondition, InitialVelocity, Load, Loading};
+use crate::loading::{InitialVelocity, Loading};
 use crate::material::correspondence::ZeroEnergyControl;
 use crate::material::mixed::BlockMaterial;
 use crate::material::surface_correction::{
@@ -50,6 +50,8 @@ pub struct Model<const D: usize> {
     pub build_time: std::time::Duration,
     /// The random pores' realisation (`pores.txt`), when the deck has pores.
     pub pores: Option<String>,
+    /// The `[[stages]]` after the deck's own (whose loading and no-fail flags are above).
+    pub stages: Vec<super::stages::StagePlan<D>>,
 }
 
 /// The calibrated model of a deck's material(s): what `run.rs` dispatches on.
@@ -391,44 +393,9 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     })?;
     let bonds = build_bonds(&body, rule, &deck.precracks);
 
-    let mut loading = Loading::<D>::default();
-    for bc in &deck.boundary_conditions {
-        loading.conditions.push(BoundaryCondition {
-            set: bc.set.clone(),
-            nodes: body.node_set(&bc.set).expect("validated set name"),
-            kind: bc.kind,
-            component: bc.component.index(),
-            value: bc.value,
-            time: bc.time.clone(),
-        });
-    }
-    for load in &deck.loads {
-        let (set, value, time, area) = match load {
-            LoadDeck::BodyForce { set, value, time } => (set, value, time, None),
-            LoadDeck::Traction {
-                set,
-                value,
-                time,
-                area,
-            } => (set, value, time, Some(*area)),
-        };
-        let nodes = body.node_set(set).expect("validated set name");
-        let mut density = vector_from_slice::<D>(value);
-        if let Some(area) = area {
-            // Traction T over area A is the force T·A spread over the set's volume.
-            let volume: f64 = nodes.iter().map(|&i| body.volumes[i as usize]).sum();
-            density *= area / volume;
-        }
-        loading.loads.push(Load {
-            set: set.clone(),
-            nodes,
-            density,
-            time: time.clone(),
-        });
-    }
-    if let SolverDeck::Explicit { damping, .. } = &deck.solver {
-        loading.damping = *damping;
-    }
+    let loading =
+        super::stages::loading(&body, &deck.boundary_conditions, &deck.loads, &deck.solver);
+    let stages = super::stages::further_stages(deck, &body);
     let initial_velocities = deck
         .initial_velocities
         .iter()
@@ -460,6 +427,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         material_of,
         materials,
         pores: pores_record,
+        stages,
     })
 }
 
@@ -479,6 +447,18 @@ fn unknown_sets<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut Vec<De
     }
     for (k, iv) in deck.initial_velocities.iter().enumerate() {
         refs.push((format!("initial_velocities[{k}].set"), &iv.set));
+    }
+    for (s, stage) in deck.stages.iter().enumerate() {
+        for (k, name) in stage.no_fail.iter().flatten().enumerate() {
+            refs.push((format!("stages[{s}].no_fail[{k}]"), name));
+        }
+        for (k, bc) in stage.boundary_conditions.iter().flatten().enumerate() {
+            refs.push((format!("stages[{s}].boundary_conditions[{k}].set"), &bc.set));
+        }
+        for (k, load) in stage.loads.iter().flatten().enumerate() {
+            let (LoadDeck::BodyForce { set, .. } | LoadDeck::Traction { set, .. }) = load;
+            refs.push((format!("stages[{s}].loads[{k}].set"), set));
+        }
     }
     for (path, name) in refs {
         if body.node_set(name).is_none() {
@@ -552,10 +532,21 @@ impl Deck {
     /// Steps between history rows: the deck's, or 10 for explicit dynamics and 1 (every load
     /// step) for a quasi-static run.
     pub fn history_interval(&self) -> u64 {
-        self.output.history_interval.unwrap_or(match self.solver {
-            SolverDeck::Explicit { .. } => 10,
-            SolverDeck::QuasiStatic { .. } => 1,
-        })
+        self.stage_history_interval(0)
+    }
+
+    /// Steps between history rows in stage `index` (0: the deck's own): the stage's, else
+    /// `[output]`'s, else 10 for explicit dynamics and 1 (every load step) for quasi-static.
+    pub fn stage_history_interval(&self, index: usize) -> u64 {
+        let (own, solver) = match index.checked_sub(1) {
+            None => (None, &self.solver),
+            Some(k) => (self.stages[k].history_interval, &self.stages[k].solver),
+        };
+        own.or(self.output.history_interval)
+            .unwrap_or(match solver {
+                SolverDeck::Explicit { .. } => 10,
+                SolverDeck::QuasiStatic { .. } => 1,
+            })
     }
 }
 
@@ -1071,9 +1062,14 @@ fn surface_corrected<const D: usize>(
     Ok((MaterialChoice::Pmb(pmb), Some(factors)))
 }
 
-/// The solver settings of a deck.
+/// The solver settings of a deck (of its own stage, the first).
 pub fn solver_settings(deck: &Deck) -> SolverSettings {
-    match &deck.solver {
+    settings_of(&deck.solver)
+}
+
+/// The settings of one `[solver]` table.
+pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
+    match solver {
         SolverDeck::Explicit {
             steps,
             end_time,

@@ -5,6 +5,7 @@ pub mod build;
 pub mod grids;
 pub mod locate;
 pub mod schema;
+pub mod stages;
 pub mod validate;
 
 pub use locate::KeyPath;

@@ -51,6 +51,11 @@ pub struct Deck {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub initial_velocities: Vec<InitialVelocityDeck>,
     pub solver: SolverDeck,
+    /// Further stages, run one after the other from where the deck's own stage (the keys
+    /// above) left the body: e.g. a quasi-static preload, then explicit dynamics (seed 000
+    /// "S + D", seed 002 protocol ii). Empty: a run of one stage.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stages: Vec<StageDeck>,
     #[serde(default)]
     pub output: OutputDeck,
     /// Fracture analysis during the run (crack tip and speed); absent: none, at no cost.
@@ -508,6 +513,28 @@ pub struct BoundaryDeck {
     pub value: f64,
     #[serde(default)]
     pub time: TimeFunction,
+}
+
+/// `[[stages]]`: a stage after the deck's own. Its solver is its own; boundary conditions,
+/// loads and no-fail sets it leaves out are those of the stage before it. The clock runs on:
+/// time functions keep their time, and `end_time` counts from the stage's start.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageDeck {
+    /// A name for the summary and `stages.csv` (default: the stage's number).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub name: String,
+    pub solver: SolverDeck,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub boundary_conditions: Option<Vec<BoundaryDeck>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loads: Option<Vec<LoadDeck>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub no_fail: Option<Vec<String>>,
+    /// Steps between history rows in this stage (default: as for a one-stage run of its
+    /// solver, unless `[output] history_interval` sets one for every stage).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history_interval: Option<u64>,
 }
 
 /// Distributed loads on a node set.

@@ -316,57 +316,14 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
             out.push(DeckIssue::new(&p, e));
         }
     }
-    for (k, name) in deck.no_fail.iter().enumerate() {
-        if !known(name) {
-            out.push(DeckIssue::new(&format!("no_fail[{k}]"), unknown_set(name)));
-        }
-    }
-    for (k, bc) in deck.boundary_conditions.iter().enumerate() {
-        let p = format!("boundary_conditions[{k}]");
-        if !known(&bc.set) {
-            out.push(DeckIssue::new(&format!("{p}.set"), unknown_set(&bc.set)));
-        }
-        if bc.component.index() >= d {
-            out.push(DeckIssue::new(
-                &format!("{p}.component"),
-                format!(
-                    "component \"{}\" does not exist in {d}D; expected \"x\" or \"y\"",
-                    ["x", "y", "z"][bc.component.index()]
-                ),
-            ));
-        }
-        if !bc.value.is_finite() {
-            out.push(DeckIssue::new(
-                &format!("{p}.value"),
-                "expected a finite number",
-            ));
-        }
-        if let Err(e) = bc.time.validate() {
-            out.push(DeckIssue::new(&format!("{p}.time"), e));
-        }
-    }
-    for (k, load) in deck.loads.iter().enumerate() {
-        let p = format!("loads[{k}]");
-        let (set, value, time) = match load {
-            LoadDeck::BodyForce { set, value, time } => (set, value, time),
-            LoadDeck::Traction {
-                set,
-                value,
-                time,
-                area,
-            } => {
-                positive(&mut out, &format!("{p}.area"), *area, "loaded area (m²)");
-                (set, value, time)
-            }
-        };
-        if !known(set) {
-            out.push(DeckIssue::new(&format!("{p}.set"), unknown_set(set)));
-        }
-        vector(&mut out, &format!("{p}.value"), value, d);
-        if let Err(e) = time.validate() {
-            out.push(DeckIssue::new(&format!("{p}.time"), e));
-        }
-    }
+    validate_loading(
+        &mut out,
+        "",
+        (&deck.no_fail, &deck.boundary_conditions, &deck.loads),
+        &known,
+        &unknown_set,
+        d,
+    );
     for (k, iv) in deck.initial_velocities.iter().enumerate() {
         let p = format!("initial_velocities[{k}]");
         if !known(&iv.set) {
@@ -419,133 +376,23 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         }
     }
 
-    match &deck.solver {
-        SolverDeck::Explicit {
-            steps,
-            end_time,
-            dt,
-            safety_factor,
-            damping,
-            adaptive,
-        } => {
-            if let Some(a) = adaptive {
-                validate_adaptive(&mut out, a);
-            }
-            match (steps, end_time) {
-                (Some(_), Some(_)) => out.push(DeckIssue::new(
-                    "solver.end_time",
-                    "give `steps` or `end_time`, not both",
-                )),
-                (None, None) => out.push(DeckIssue::new(
-                    "solver",
-                    "missing the run length: give `steps` or `end_time` (s)",
-                )),
-                (Some(0), None) => out.push(DeckIssue::new(
-                    "solver.steps",
-                    "expected at least 1 step, found 0",
-                )),
-                (None, Some(t)) => positive(&mut out, "solver.end_time", *t, "end time (s)"),
-                _ => {}
-            }
-            if let Some(dt) = dt {
-                positive(&mut out, "solver.dt", *dt, "time step (s)");
-            }
-            if !(safety_factor.is_finite() && *safety_factor > 0.0 && *safety_factor <= 1.0) {
-                out.push(DeckIssue::new(
-                    "solver.safety_factor",
-                    format!("safety factor must lie in (0, 1], found {safety_factor}"),
-                ));
-            }
-            if !(damping.is_finite() && *damping >= 0.0) {
-                out.push(DeckIssue::new(
-                    "solver.damping",
-                    format!("damping (1/s) must be zero or positive, found {damping}"),
-                ));
-            }
-        }
-        SolverDeck::QuasiStatic {
-            load_steps,
-            end_time,
-            method,
-            tolerance,
-            max_iterations,
-            mass_factor,
-            max_equilibria,
-            max_broken_bonds,
-            ..
-        } => {
-            let softens = std::iter::once(&deck.material)
-                .chain(deck.materials.values())
-                .any(|m| {
-                    matches!(
-                        m.damage(),
-                        DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. }
-                    )
-                });
-            if *method == QuasiStaticMethod::Ncg && softens {
-                out.push(DeckIssue::new(
-                    "solver.method",
-                    "conjugate gradients minimise a convex energy; a bilinear or trilinear softening law is not convex (seed 001 §2.10): use method = \"adr\"",
-                ));
-            }
-            if *load_steps == 0 {
-                out.push(DeckIssue::new(
-                    "solver.load_steps",
-                    "expected at least 1 load step, found 0",
-                ));
-            }
-            positive(
-                &mut out,
-                "solver.end_time",
-                *end_time,
-                "load parameter at the end",
-            );
-            if !(tolerance.is_finite() && *tolerance > 0.0 && *tolerance < 1.0) {
-                out.push(DeckIssue::new(
-                    "solver.tolerance",
-                    format!(
-                        "the relative residual tolerance must lie in (0, 1), found {tolerance}"
-                    ),
-                ));
-            }
-            if *max_iterations == 0 || *max_equilibria == 0 {
-                out.push(DeckIssue::new(
-                    if *max_iterations == 0 {
-                        "solver.max_iterations"
-                    } else {
-                        "solver.max_equilibria"
-                    },
-                    "expected at least 1",
-                ));
-            }
-            if !(mass_factor.is_finite() && *mass_factor >= 1.0) {
-                out.push(DeckIssue::new(
-                    "solver.mass_factor",
-                    format!("the fictitious mass factor must be at least 1 (the stability bound of dynamic relaxation), found {mass_factor}"),
-                ));
-            }
-            if *max_broken_bonds == Some(0) {
-                out.push(DeckIssue::new(
-                    "solver.max_broken_bonds",
-                    "expected at least 1 bond (or leave it out: never split a load step)",
-                ));
-            }
-            for (k, bc) in deck.boundary_conditions.iter().enumerate() {
-                if bc.kind == Kinematic::Velocity {
-                    out.push(DeckIssue::new(
-                        &format!("boundary_conditions[{k}].kind"),
-                        "a quasi-static run prescribes displacements; a velocity has no meaning without time (use kind = \"displacement\" with a ramp)",
-                    ));
-                }
-            }
-            if !deck.initial_velocities.is_empty() {
-                out.push(DeckIssue::new(
-                    "initial_velocities",
-                    "a quasi-static run has no velocities; remove initial_velocities or use the explicit solver",
-                ));
-            }
-        }
-    }
+    let softens = std::iter::once(&deck.material)
+        .chain(deck.materials.values())
+        .any(|m| {
+            matches!(
+                m.damage(),
+                DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. }
+            )
+        });
+    validate_solver(
+        &mut out,
+        "",
+        &deck.solver,
+        softens,
+        ("", &deck.boundary_conditions),
+        !deck.initial_velocities.is_empty(),
+    );
+    validate_stages(&mut out, deck, softens, &known, &unknown_set);
     if let Some(tip) = deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         validate_crack_tip(&mut out, tip, d);
     }
@@ -883,6 +730,247 @@ fn validate_material(
     }
 }
 
+/// A `[solver]` table at `prefix` ("" or "stages[k]."), with the boundary conditions it runs
+/// under and where they are written (`at`: a stage may keep those of a stage before it).
+fn validate_solver(
+    issues: &mut Vec<DeckIssue>,
+    prefix: &str,
+    solver: &SolverDeck,
+    softens: bool,
+    (at, conditions): (&str, &[BoundaryDeck]),
+    initial_velocities: bool,
+) {
+    match solver {
+        SolverDeck::Explicit {
+            steps,
+            end_time,
+            dt,
+            safety_factor,
+            damping,
+            adaptive,
+        } => {
+            if let Some(a) = adaptive {
+                validate_adaptive(issues, prefix, a);
+            }
+            match (steps, end_time) {
+                (Some(_), Some(_)) => issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.end_time"),
+                    "give `steps` or `end_time`, not both",
+                )),
+                (None, None) => issues.push(DeckIssue::new(
+                    &format!("{prefix}solver"),
+                    "missing the run length: give `steps` or `end_time` (s)",
+                )),
+                (Some(0), None) => issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.steps"),
+                    "expected at least 1 step, found 0",
+                )),
+                (None, Some(t)) => positive(
+                    issues,
+                    &format!("{prefix}solver.end_time"),
+                    *t,
+                    "end time (s)",
+                ),
+                _ => {}
+            }
+            if let Some(dt) = dt {
+                positive(issues, &format!("{prefix}solver.dt"), *dt, "time step (s)");
+            }
+            if !(safety_factor.is_finite() && *safety_factor > 0.0 && *safety_factor <= 1.0) {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.safety_factor"),
+                    format!("safety factor must lie in (0, 1], found {safety_factor}"),
+                ));
+            }
+            if !(damping.is_finite() && *damping >= 0.0) {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.damping"),
+                    format!("damping (1/s) must be zero or positive, found {damping}"),
+                ));
+            }
+        }
+        SolverDeck::QuasiStatic {
+            load_steps,
+            end_time,
+            method,
+            tolerance,
+            max_iterations,
+            mass_factor,
+            max_equilibria,
+            max_broken_bonds,
+            ..
+        } => {
+            if *method == QuasiStaticMethod::Ncg && softens {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.method"),
+                    "conjugate gradients minimise a convex energy; a bilinear or trilinear softening law is not convex (seed 001 §2.10): use method = \"adr\"",
+                ));
+            }
+            if *load_steps == 0 {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.load_steps"),
+                    "expected at least 1 load step, found 0",
+                ));
+            }
+            positive(
+                issues,
+                &format!("{prefix}solver.end_time"),
+                *end_time,
+                "load parameter at the end",
+            );
+            if !(tolerance.is_finite() && *tolerance > 0.0 && *tolerance < 1.0) {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.tolerance"),
+                    format!(
+                        "the relative residual tolerance must lie in (0, 1), found {tolerance}"
+                    ),
+                ));
+            }
+            if *max_iterations == 0 || *max_equilibria == 0 {
+                issues.push(DeckIssue::new(
+                    &if *max_iterations == 0 {
+                        format!("{prefix}solver.max_iterations")
+                    } else {
+                        format!("{prefix}solver.max_equilibria")
+                    },
+                    "expected at least 1",
+                ));
+            }
+            if !(mass_factor.is_finite() && *mass_factor >= 1.0) {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.mass_factor"),
+                    format!("the fictitious mass factor must be at least 1 (the stability bound of dynamic relaxation), found {mass_factor}"),
+                ));
+            }
+            if *max_broken_bonds == Some(0) {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.max_broken_bonds"),
+                    "expected at least 1 bond (or leave it out: never split a load step)",
+                ));
+            }
+            for (k, bc) in conditions.iter().enumerate() {
+                if bc.kind == Kinematic::Velocity {
+                    issues.push(DeckIssue::new(
+                        &format!("{at}boundary_conditions[{k}].kind"),
+                        "a quasi-static run prescribes displacements; a velocity has no meaning without time (use kind = \"displacement\" with a ramp)",
+                    ));
+                }
+            }
+            if initial_velocities {
+                issues.push(DeckIssue::new(
+                    "initial_velocities",
+                    "a quasi-static run has no velocities; remove initial_velocities or use the explicit solver",
+                ));
+            }
+        }
+    }
+}
+
+/// `[[stages]]`: each stage's solver under the boundary conditions it runs with (its own or
+/// those it keeps from the stage before), its own loading keys.
+fn validate_stages(
+    issues: &mut Vec<DeckIssue>,
+    deck: &Deck,
+    softens: bool,
+    known: &dyn Fn(&str) -> bool,
+    unknown_set: &dyn Fn(&str) -> String,
+) {
+    let mut conditions = (String::new(), &deck.boundary_conditions);
+    for (k, stage) in deck.stages.iter().enumerate() {
+        let prefix = format!("stages[{k}].");
+        if let Some(own) = &stage.boundary_conditions {
+            conditions = (prefix.clone(), own);
+        }
+        validate_solver(
+            issues,
+            &prefix,
+            &stage.solver,
+            softens,
+            (&conditions.0, conditions.1),
+            false,
+        );
+        let none = Vec::new();
+        validate_loading(
+            issues,
+            &prefix,
+            (
+                stage.no_fail.as_ref().unwrap_or(&none),
+                stage.boundary_conditions.as_ref().unwrap_or(&Vec::new()),
+                stage.loads.as_ref().unwrap_or(&Vec::new()),
+            ),
+            known,
+            unknown_set,
+            deck.dimension,
+        );
+    }
+}
+
+/// The no-fail sets, boundary conditions and loads of a stage; `prefix` is where they are
+/// ("" for the deck's own, "stages[k]." for a later stage).
+fn validate_loading(
+    issues: &mut Vec<DeckIssue>,
+    prefix: &str,
+    (no_fail, conditions, loads): (&[String], &[BoundaryDeck], &[LoadDeck]),
+    known: &dyn Fn(&str) -> bool,
+    unknown_set: &dyn Fn(&str) -> String,
+    d: usize,
+) {
+    for (k, name) in no_fail.iter().enumerate() {
+        if !known(name) {
+            issues.push(DeckIssue::new(
+                &format!("{prefix}no_fail[{k}]"),
+                unknown_set(name),
+            ));
+        }
+    }
+    for (k, bc) in conditions.iter().enumerate() {
+        let p = format!("{prefix}boundary_conditions[{k}]");
+        if !known(&bc.set) {
+            issues.push(DeckIssue::new(&format!("{p}.set"), unknown_set(&bc.set)));
+        }
+        if bc.component.index() >= d {
+            issues.push(DeckIssue::new(
+                &format!("{p}.component"),
+                format!(
+                    "component \"{}\" does not exist in {d}D; expected \"x\" or \"y\"",
+                    ["x", "y", "z"][bc.component.index()]
+                ),
+            ));
+        }
+        if !bc.value.is_finite() {
+            issues.push(DeckIssue::new(
+                &format!("{p}.value"),
+                "expected a finite number",
+            ));
+        }
+        if let Err(e) = bc.time.validate() {
+            issues.push(DeckIssue::new(&format!("{p}.time"), e));
+        }
+    }
+    for (k, load) in loads.iter().enumerate() {
+        let p = format!("{prefix}loads[{k}]");
+        let (set, value, time) = match load {
+            LoadDeck::BodyForce { set, value, time } => (set, value, time),
+            LoadDeck::Traction {
+                set,
+                value,
+                time,
+                area,
+            } => {
+                positive(issues, &format!("{p}.area"), *area, "loaded area (m²)");
+                (set, value, time)
+            }
+        };
+        if !known(set) {
+            issues.push(DeckIssue::new(&format!("{p}.set"), unknown_set(set)));
+        }
+        vector(issues, &format!("{p}.value"), value, d);
+        if let Err(e) = time.validate() {
+            issues.push(DeckIssue::new(&format!("{p}.time"), e));
+        }
+    }
+}
+
 fn vector(out: &mut Vec<DeckIssue>, path: &str, v: &[f64], d: usize) {
     if v.len() != d {
         out.push(DeckIssue::new(
@@ -895,8 +983,8 @@ fn vector(out: &mut Vec<DeckIssue>, path: &str, v: &[f64], d: usize) {
 }
 
 /// `[solver.adaptive]`.
-fn validate_adaptive(out: &mut Vec<DeckIssue>, a: &AdaptiveDtDeck) {
-    let p = "solver.adaptive";
+fn validate_adaptive(out: &mut Vec<DeckIssue>, prefix: &str, a: &AdaptiveDtDeck) {
+    let p = &format!("{prefix}solver.adaptive");
     if a.max_broken_per_node == 0 {
         out.push(DeckIssue::new(
             &format!("{p}.max_broken_per_node"),

@@ -3,7 +3,7 @@
 //! openings between probe nodes.
 
 use super::csv::CsvHistory;
-use super::observer::{Every, Observer, StepView};
+use super::observer::{Every, Observer, StageStart, StepView};
 use crate::math::Vector;
 use std::path::Path;
 
@@ -13,6 +13,8 @@ pub struct History {
     sets: Vec<Vec<u32>>,
     /// Node pairs whose change of distance is recorded (`opening_<name>`).
     openings: Vec<(usize, usize)>,
+    /// The stage in progress (from 1), when the run has several and the column `stage`.
+    stage: Option<usize>,
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -49,7 +51,15 @@ impl History {
             every: Every(every),
             sets: set_names.iter().map(|(_, n)| n.clone()).collect(),
             openings: Vec::new(),
+            stage: None,
         }
+    }
+
+    /// Adds a last column `stage`: the number (from 1) of the stage a row belongs to.
+    pub fn with_stages(mut self) -> Self {
+        self.csv.add_column("stage".into());
+        self.stage = Some(1);
+        self
     }
 
     /// Adds a column `opening_<name>` per (name, node a, node b): |y_b − y_a| − |x_b − x_a|,
@@ -103,11 +113,21 @@ impl<const D: usize> Observer<D> for History {
         for &(a, b) in &self.openings {
             row.push((state.current[b] - state.current[a]).norm() - (x[b] - x[a]).norm());
         }
+        if let Some(stage) = self.stage {
+            row.push(stage as f64);
+        }
         self.csv.push(row)?;
         if view.last {
             self.csv.flush()?;
         }
         Ok(())
+    }
+
+    fn begin_stage(&mut self, stage: &StageStart) {
+        self.every = Every(stage.history_interval);
+        if self.stage.is_some() {
+            self.stage = Some(stage.index + 1);
+        }
     }
 
     fn finish(&mut self) -> std::io::Result<()> {

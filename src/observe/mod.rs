@@ -10,6 +10,7 @@ pub mod progress;
 pub mod pvd;
 pub mod resume;
 pub mod snapshots;
+pub mod stage_record;
 pub mod vtu;
 
-pub use observer::{Every, Observer, StepView};
+pub use observer::{Every, Observer, StageStart, StepView};

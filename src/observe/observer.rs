@@ -69,12 +69,24 @@ pub trait Observer<const D: usize> {
     fn finish(&mut self) -> std::io::Result<()> {
         Ok(())
     }
+    /// A new stage of a staged run starts after the step last offered (stage 0 starts
+    /// before step 0 and is not announced).
+    fn begin_stage(&mut self, _stage: &StageStart) {}
     /// Brings the files up to the last observed step, before a checkpoint is written (a
     /// restart keeps what they hold up to the checkpoint's step). By default `finish`: the
     /// writers rewrite their files whole, so finishing early is only a flush.
     fn flush(&mut self) -> std::io::Result<()> {
         self.finish()
     }
+}
+
+/// What observers learn when a stage starts.
+#[derive(Debug, Clone, Copy)]
+pub struct StageStart {
+    /// 0 for the deck's own stage, k for `[[stages]]` entry k − 1.
+    pub index: usize,
+    /// Steps between history rows in this stage.
+    pub history_interval: u64,
 }
 
 /// "Every n steps, and the last one" — the schedule shared by the writers.

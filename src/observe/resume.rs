@@ -105,6 +105,10 @@ impl<const D: usize> Observer<D> for ResumedCsv<D> {
         self.inner.wants(step, last)
     }
 
+    fn begin_stage(&mut self, stage: &super::observer::StageStart) {
+        self.inner.begin_stage(stage);
+    }
+
     fn observe(&mut self, view: &StepView<D>) -> io::Result<()> {
         self.inner.observe(view)?;
         if view.last || self.last_merge.elapsed() > MERGE_INTERVAL {

@@ -76,11 +76,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         let densities = (0..body.len())
             .map(|i| engine.material.density(i))
             .collect();
-        let mask = loading.constrained_mask(body.len());
-        let constrained = (0..body.len())
-            .flat_map(|i| (0..D).map(move |k| (i, k)))
-            .filter(|&(i, k)| mask[i][k])
-            .collect();
+        let (constrained, mask) = constraints(&loading, body.len());
         let mut state = State::new(&body, &bonds, history_words);
         if keep_previous {
             state.previous = state.current.clone();
@@ -103,6 +99,20 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         sim.loading.apply_end_velocities(&mut sim.state, 0.0);
         sim.refresh_forces()?;
         Ok(sim)
+    }
+
+    /// Switches to another set of boundary conditions and loads (a new stage): the
+    /// constrained components are those of `loading`, its displacements and velocities are
+    /// applied at the current time, and the forces are evaluated again (bonds past their limit
+    /// break here, e.g. when a stage lifts a no-fail set). Returns the bond halves broken.
+    pub fn set_loading(&mut self, loading: Loading<D>) -> Result<u64, StepError> {
+        (self.constrained, self.constrained_mask) = constraints(&loading, self.body.len());
+        self.loading = loading;
+        let t = self.state.time;
+        self.loading
+            .apply_displacements(&self.body, &mut self.state, t);
+        self.loading.apply_end_velocities(&mut self.state, t);
+        self.refresh_forces()
     }
 
     /// v += dt/2 · a with a = (f + b)/ρ − η v, in parallel (each node on its own).
@@ -287,6 +297,19 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .map(|&i| self.state.force[i as usize] * self.body.volumes[i as usize])
             .fold(Vector::zeros(), |a, b| a + b)
     }
+}
+
+/// The constrained (node, component) pairs of a loading, and the same as a per-node mask.
+fn constraints<const D: usize>(
+    loading: &Loading<D>,
+    n: usize,
+) -> (Vec<(usize, usize)>, Vec<[bool; 3]>) {
+    let mask = loading.constrained_mask(n);
+    let pairs = (0..n)
+        .flat_map(|i| (0..D).map(move |k| (i, k)))
+        .filter(|&(i, k)| mask[i][k])
+        .collect();
+    (pairs, mask)
 }
 
 /// What observers may read of a simulation, whatever its material.

@@ -29,4 +29,5 @@ mod quasi_static;
 mod restart;
 mod separation_work;
 mod softening;
+mod staged;
 mod wave_speed;
