@@ -315,6 +315,9 @@ fn run_dim<const D: usize>(
 
 /// Why a deck's run cannot be continued from a checkpoint (then it writes none).
 fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
+    if !deck.impactors.is_empty() {
+        return Some("a run with impactors (their position and velocity are not checkpointed)");
+    }
     solver_settings(deck)
         .quasi_static
         .is_some()
@@ -421,6 +424,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         .steps
         .unwrap_or_else(|| (settings.end_time.unwrap_or(0.0) / sim.dt).ceil() as u64);
     let el: Elasticity = sim.engine.material.elasticity();
+    attach_contact(ld, &mut sim, spacing, horizon, el)?;
     let nodes = sim.body.len();
     let bytes_per_bond =
         crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history_bytes;
@@ -462,6 +466,31 @@ pub fn prepare<const D: usize, M: Material<D>>(
         surface_correction: surface,
     };
     Ok((sim, report))
+}
+
+/// `[contact]` and `[[impactors]]` (`deck::contact`), with the forces at the initial state.
+fn attach_contact<const D: usize, M: Material<D>>(
+    ld: &LoadedDeck,
+    sim: &mut Simulation<D, M>,
+    spacing: f64,
+    horizon: f64,
+    elasticity: Elasticity,
+) -> Result<(), RunError> {
+    use crate::deck::contact::{impactors, node_contact, Scales};
+    if ld.deck.contact.is_none() && ld.deck.impactors.is_empty() {
+        return Ok(());
+    }
+    let scales = Scales {
+        spacing,
+        horizon,
+        volume: sim.body.total_volume() / sim.body.len().max(1) as f64,
+        thickness: sim.body.thickness,
+        elasticity,
+    };
+    sim.contact = node_contact(&ld.deck, &scales);
+    sim.impactors = impactors(&ld.deck, &scales);
+    sim.refresh_forces()?;
+    Ok(())
 }
 
 fn run_model<const D: usize, M: Material<D>>(
@@ -524,8 +553,13 @@ fn run_model<const D: usize, M: Material<D>>(
         deck.title.clone()
     };
     let openings = opening_nodes(&sim.body, &deck.output.openings);
+    let impactor_names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
     let history = |path: &std::path::Path| -> Box<dyn Observer<D>> {
-        Box::new(History::new::<D>(path, history_every, &sets).with_openings(&openings))
+        let h = History::new::<D>(path, history_every, &sets).with_openings(&openings);
+        Box::new(match deck.contact.is_some() || !deck.impactors.is_empty() {
+            true => h.with_contact::<D>(&impactor_names),
+            false => h,
+        })
     };
     let history_path = out.join("history.csv");
     let (output, step, time) = (&deck.output, sim.state.step, sim.state.time);

@@ -50,6 +50,12 @@ pub struct Deck {
     pub loads: Vec<LoadDeck>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub initial_velocities: Vec<InitialVelocityDeck>,
+    /// Node–node contact (`deck::contact`); absent: off, at no cost.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact: Option<super::contact::ContactDeck>,
+    /// Rigid impactors (`deck::contact`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub impactors: Vec<super::contact::ImpactorDeck>,
     pub solver: SolverDeck,
     #[serde(default)]
     pub output: OutputDeck,

@@ -13,6 +13,8 @@ pub struct History {
     sets: Vec<Vec<u32>>,
     /// Node pairs whose change of distance is recorded (`opening_<name>`).
     openings: Vec<(usize, usize)>,
+    /// With contact or impactors: their energies join the balance and have columns.
+    contact: bool,
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -49,7 +51,24 @@ impl History {
             every: Every(every),
             sets: set_names.iter().map(|(_, n)| n.clone()).collect(),
             openings: Vec::new(),
+            contact: false,
         }
+    }
+
+    /// Adds the contact columns: `contact_energy`, `impactor_kinetic_energy`, and each
+    /// impactor's force (of the body on it), position and velocity.
+    pub fn with_contact<const D: usize>(mut self, impactors: &[String]) -> Self {
+        self.contact = true;
+        self.csv.add_column("contact_energy".to_string());
+        self.csv.add_column("impactor_kinetic_energy".to_string());
+        for name in impactors {
+            for what in ["force", "position", "velocity"] {
+                for axis in AXES.iter().take(D) {
+                    self.csv.add_column(format!("impactor_{name}_{what}_{axis}"));
+                }
+            }
+        }
+        self
     }
 
     /// Adds a column `opening_<name>` per (name, node a, node b): |y_b − y_a| − |x_b − x_a|,
@@ -80,6 +99,14 @@ impl<const D: usize> Observer<D> for History {
         // its growth is the energy dissipated by damage, which the force engine books as
         // D_damage; the residual W_ext − (E_kin + E_strain + D_viscous + D_damage) is what is
         // left unexplained (time-integration error).
+        // With contact, its potential energy and the free impactors' kinetic energy are part
+        // of the conserved total.
+        let (ec, ei) = if self.contact {
+            (view.contact_energy(), view.impactor_kinetic_energy())
+        } else {
+            (0.0, 0.0)
+        };
+        let stored = if self.contact { ek + es + ec + ei } else { ek + es };
         let mut row = vec![
             state.time,
             state.step as f64,
@@ -87,9 +114,9 @@ impl<const D: usize> Observer<D> for History {
             es,
             w,
             dv,
-            ek + es + dv - w,
+            stored + dv - w,
             dd,
-            w - (ek + es + dv + dd),
+            w - (stored + dv + dd),
             (state.broken / 2) as f64,
             state.dt,
             state.iterations as f64,
@@ -102,6 +129,15 @@ impl<const D: usize> Observer<D> for History {
         let x = &view.body.positions;
         for &(a, b) in &self.openings {
             row.push((state.current[b] - state.current[a]).norm() - (x[b] - x[a]).norm());
+        }
+        if self.contact {
+            row.push(ec);
+            row.push(ei);
+            for im in view.impactors() {
+                row.extend(im.force.iter());
+                row.extend(im.position.iter());
+                row.extend(im.velocity.iter());
+            }
         }
         self.csv.push(row)?;
         if view.last {
