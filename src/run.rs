@@ -337,6 +337,9 @@ fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
     if !deck.stages.is_empty() {
         return Some("a staged run (the stage in progress is not checkpointed)");
     }
+    if !deck.impactors.is_empty() {
+        return Some("a run with impactors (their position and velocity are not checkpointed)");
+    }
     solver_settings(deck)
         .quasi_static
         .is_some()
@@ -443,6 +446,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         .steps
         .unwrap_or_else(|| (settings.end_time.unwrap_or(0.0) / sim.dt).ceil() as u64);
     let el: Elasticity = sim.engine.material.elasticity();
+    attach_contact(ld, &mut sim, spacing, horizon, el)?;
     let nodes = sim.body.len();
     let bytes_per_bond =
         crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history_bytes;
@@ -530,6 +534,31 @@ fn with_stages(
     Ok(report)
 }
 
+/// `[contact]` and `[[impactors]]` (`deck::contact`), with the forces at the initial state.
+fn attach_contact<const D: usize, M: Material<D>>(
+    ld: &LoadedDeck,
+    sim: &mut Simulation<D, M>,
+    spacing: f64,
+    horizon: f64,
+    elasticity: Elasticity,
+) -> Result<(), RunError> {
+    use crate::deck::contact::{impactors, node_contact, Scales};
+    if ld.deck.contact.is_none() && ld.deck.impactors.is_empty() {
+        return Ok(());
+    }
+    let scales = Scales {
+        spacing,
+        horizon,
+        volume: sim.body.total_volume() / sim.body.len().max(1) as f64,
+        thickness: sim.body.thickness,
+        elasticity,
+    };
+    sim.contact = node_contact(&ld.deck, &scales);
+    sim.impactors = impactors(&ld.deck, &scales);
+    sim.refresh_forces()?;
+    Ok(())
+}
+
 fn run_model<const D: usize, M: Material<D>>(
     ld: &LoadedDeck,
     mut model: Model<D>,
@@ -592,8 +621,13 @@ fn run_model<const D: usize, M: Material<D>>(
     };
     let openings = opening_nodes(&sim.body, &deck.output.openings);
     let staged = !plans.is_empty();
+    let impactor_names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
     let history = |path: &std::path::Path| -> Box<dyn Observer<D>> {
         let h = History::new::<D>(path, history_every, &sets).with_openings(&openings);
+        let h = match deck.contact.is_some() || !deck.impactors.is_empty() {
+            true => h.with_contact::<D>(&impactor_names),
+            false => h,
+        };
         Box::new(if staged { h.with_stages() } else { h })
     };
     let history_path = out.join("history.csv");

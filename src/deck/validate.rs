@@ -349,6 +349,7 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         }
     }
 
+    super::contact::validate(&mut out, deck);
     validate_maps(&mut out, &deck.output, d);
     if deck.output.checkpoint_interval == Some(0) {
         out.push(DeckIssue::new(

@@ -15,6 +15,8 @@ pub struct History {
     openings: Vec<(usize, usize)>,
     /// The stage in progress (from 1), when the run has several and the column `stage`.
     stage: Option<usize>,
+    /// With contact or impactors: their energies join the balance and have columns.
+    contact: bool,
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -52,7 +54,24 @@ impl History {
             sets: set_names.iter().map(|(_, n)| n.clone()).collect(),
             openings: Vec::new(),
             stage: None,
+            contact: false,
         }
+    }
+
+    /// Adds the contact columns: `contact_energy`, `impactor_kinetic_energy`, and each
+    /// impactor's force (of the body on it), position and velocity.
+    pub fn with_contact<const D: usize>(mut self, impactors: &[String]) -> Self {
+        self.contact = true;
+        self.csv.add_column("contact_energy".to_string());
+        self.csv.add_column("impactor_kinetic_energy".to_string());
+        for name in impactors {
+            for what in ["force", "position", "velocity"] {
+                for axis in AXES.iter().take(D) {
+                    self.csv.add_column(format!("impactor_{name}_{what}_{axis}"));
+                }
+            }
+        }
+        self
     }
 
     /// Adds a last column `stage`: the number (from 1) of the stage a row belongs to.
@@ -90,6 +109,14 @@ impl<const D: usize> Observer<D> for History {
         // its growth is the energy dissipated by damage, which the force engine books as
         // D_damage; the residual W_ext − (E_kin + E_strain + D_viscous + D_damage) is what is
         // left unexplained (time-integration error).
+        // With contact, its potential energy and the free impactors' kinetic energy are part
+        // of the conserved total.
+        let (ec, ei) = if self.contact {
+            (view.contact_energy(), view.impactor_kinetic_energy())
+        } else {
+            (0.0, 0.0)
+        };
+        let stored = if self.contact { ek + es + ec + ei } else { ek + es };
         let mut row = vec![
             state.time,
             state.step as f64,
@@ -97,9 +124,9 @@ impl<const D: usize> Observer<D> for History {
             es,
             w,
             dv,
-            ek + es + dv - w,
+            stored + dv - w,
             dd,
-            w - (ek + es + dv + dd),
+            w - (stored + dv + dd),
             (state.broken / 2) as f64,
             state.dt,
             state.iterations as f64,
@@ -112,6 +139,15 @@ impl<const D: usize> Observer<D> for History {
         let x = &view.body.positions;
         for &(a, b) in &self.openings {
             row.push((state.current[b] - state.current[a]).norm() - (x[b] - x[a]).norm());
+        }
+        if self.contact {
+            row.push(ec);
+            row.push(ei);
+            for im in view.impactors() {
+                row.extend(im.force.iter());
+                row.extend(im.position.iter());
+                row.extend(im.velocity.iter());
+            }
         }
         if let Some(stage) = self.stage {
             row.push(stage as f64);

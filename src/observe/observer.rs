@@ -58,6 +58,18 @@ impl<'a, const D: usize> StepView<'a, D> {
     pub fn reaction(&self, nodes: &[u32]) -> Vector<D> {
         self.fields.reaction(nodes)
     }
+    /// Contact potential energy, node–node and impactor penalty (J).
+    pub fn contact_energy(&self) -> f64 {
+        self.fields.contact_energy()
+    }
+    /// Kinetic energy of the free impactors (J).
+    pub fn impactor_kinetic_energy(&self) -> f64 {
+        self.fields.impactor_kinetic_energy()
+    }
+    /// The impactors and their state.
+    pub fn impactors(&self) -> &[crate::solver::impactor::Impactor<D>] {
+        self.fields.impactors()
+    }
 }
 
 /// Something that watches the run: writers, trackers, progress.

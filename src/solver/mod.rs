@@ -2,8 +2,10 @@
 //! step controller) and the quasi-static load-step loop (adaptive dynamic relaxation).
 
 pub mod adaptive_dt;
+pub mod contact;
 pub mod dissipation;
 pub mod forces;
+pub mod impactor;
 pub mod ncg;
 pub mod quasi_static;
 pub mod verlet;

@@ -1,6 +1,8 @@
 //! Explicit dynamics with velocity Verlet, the simulation bundle it advances, and the energy
 //! bookkeeping (kinetic, strain, external work, viscous dissipation).
 
+use super::contact::NodeContact;
+use super::impactor::{Impactor, Impactors};
 use super::ForceEngine;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume};
@@ -48,6 +50,10 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     /// Mass density of each node (kg/m³).
     pub densities: Vec<f64>,
     pub counters: Counters,
+    /// Node–node contact (`None`: off, at no cost).
+    pub contact: Option<NodeContact<D>>,
+    /// Rigid impactors (empty: none).
+    pub impactors: Impactors<D>,
     /// Constrained (node, component) pairs, and the same as a per-node mask.
     constrained: Vec<(usize, usize)>,
     pub(super) constrained_mask: Vec<[bool; 3]>,
@@ -91,6 +97,8 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             dt_stable,
             densities,
             counters: Counters::default(),
+            contact: None,
+            impactors: Impactors::default(),
             constrained,
             constrained_mask: mask,
         };
@@ -148,7 +156,18 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .compute(&self.body, &self.bonds, &mut self.state);
         let t = self.state.time;
         self.loading.body_forces(&mut self.state, t);
+        self.add_contact_forces();
         Ok(broken)
+    }
+
+    /// Adds the node–node contact and impactor forces to the internal force densities.
+    fn add_contact_forces(&mut self) {
+        if let Some(c) = &mut self.contact {
+            c.add_forces(&self.body, &self.bonds, &mut self.state);
+        }
+        if !self.impactors.is_empty() {
+            self.impactors.add_forces(&self.body, &mut self.state);
+        }
     }
 
     /// One velocity-Verlet step: half-kick → prescribed velocities → drift → prescribed
@@ -175,6 +194,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         let u_old_free_work = self.body_force_power_start();
 
         self.half_kick();
+        self.impactors.begin_step(dt);
         self.loading
             .apply_half_step_velocity(&mut self.state, t0 + 0.5 * dt);
         let dissipated = if self.loading.damping > 0.0 {
@@ -200,6 +220,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             self.engine
                 .compute_in_step(&self.body, &self.bonds, &mut self.state, 0.5 * dt);
         self.loading.body_forces(&mut self.state, t1);
+        self.add_contact_forces();
         self.counters.force += started.elapsed();
 
         let started = Instant::now();
@@ -207,7 +228,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         self.loading.apply_end_velocities(&mut self.state, t1);
 
         // Work of the constraints: ΔKE of the dof minus the work of the other forces on it.
-        let mut work = self.body_force_work(&u_old_free_work);
+        let mut work = self.body_force_work(&u_old_free_work) + self.impactors.end_step(dt);
         for (&(i, k), &(u0, v0, f0)) in self.constrained.iter().zip(&before) {
             let (u1, v1) = (self.state.u[i][k], self.state.v[i][k]);
             let f1 = self.body.volumes[i] * (self.state.force[i][k] + self.state.body_force[i][k]);
@@ -326,6 +347,22 @@ pub trait Fields<const D: usize> {
     fn damage_dissipation(&self) -> f64;
     /// External force (N) that holds a node set.
     fn reaction(&self, nodes: &[u32]) -> Vector<D>;
+    /// Whether the run has node–node contact or impactors (their history columns).
+    fn has_contact(&self) -> bool {
+        false
+    }
+    /// Contact potential energy (J): node–node pairs plus the impactors' penalty.
+    fn contact_energy(&self) -> f64 {
+        0.0
+    }
+    /// Kinetic energy of the free impactors (J).
+    fn impactor_kinetic_energy(&self) -> f64 {
+        0.0
+    }
+    /// The impactors and their state.
+    fn impactors(&self) -> &[Impactor<D>] {
+        &[]
+    }
 }
 
 impl<const D: usize, M: Material<D>> Fields<D> for Simulation<D, M> {
@@ -351,5 +388,17 @@ impl<const D: usize, M: Material<D>> Fields<D> for Simulation<D, M> {
     }
     fn reaction(&self, nodes: &[u32]) -> Vector<D> {
         Simulation::reaction(self, nodes)
+    }
+    fn has_contact(&self) -> bool {
+        self.contact.is_some() || !self.impactors.is_empty()
+    }
+    fn contact_energy(&self) -> f64 {
+        self.contact.as_ref().map_or(0.0, |c| c.energy) + self.impactors.energy()
+    }
+    fn impactor_kinetic_energy(&self) -> f64 {
+        self.impactors.kinetic_energy()
+    }
+    fn impactors(&self) -> &[Impactor<D>] {
+        &self.impactors.list
     }
 }

@@ -6,6 +6,7 @@ mod adaptive_dt;
 mod blocks;
 mod common;
 mod conformance;
+mod contact;
 mod correspondence;
 mod crack_path_run;
 mod crack_tracking;

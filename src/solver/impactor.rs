@@ -1,0 +1,217 @@
+//! Rigid impactors (plane, sphere/disk, cylinder) pressing on the nodes by a penalty force, as
+//! LAMMPS' `fix indent`: a node at depth p inside the impactor feels F = K p² (N) along the
+//! impactor's outward normal, the impactor the opposite; the penalty energy is K p³/3
+//! (∫ K p² dp). An impactor either moves at a prescribed velocity (the force that keeps it so
+//! does work on the body) or is a free rigid body of mass M that the body's reaction
+//! decelerates, advanced by the same velocity-Verlet step as the nodes.
+
+use crate::body::Body;
+use crate::math::Vector;
+use crate::state::State;
+use rayon::prelude::*;
+
+/// Nodes per parallel chunk (fixed, so the reaction's sum order does not depend on threads).
+const CHUNK: usize = 4096;
+
+/// The impactor's shape, about its reference point (`Impactor::position`).
+#[derive(Debug, Clone, Copy)]
+pub enum ImpactorShape<const D: usize> {
+    /// The half-space behind a plane through the point; `normal` (unit) points out of the
+    /// impactor, towards the body. With `extent`, only nodes whose projection onto the plane
+    /// lies within that distance of the point (a flat punch).
+    Plane {
+        normal: Vector<D>,
+        extent: Option<f64>,
+    },
+    /// A sphere (a disk in 2D) of this radius about the point.
+    Sphere { radius: f64 },
+    /// A cylinder of this radius whose axis runs along z through the point (a disk in 2D).
+    Cylinder { radius: f64 },
+}
+
+/// How an impactor moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Motion {
+    /// At its velocity, whatever the load.
+    Prescribed,
+    /// A free rigid body of this mass (kg).
+    Free { mass: f64 },
+}
+
+/// One rigid impactor and its state.
+#[derive(Debug, Clone)]
+pub struct Impactor<const D: usize> {
+    pub name: String,
+    pub shape: ImpactorShape<D>,
+    pub motion: Motion,
+    /// Penalty constant K (N/m²).
+    pub stiffness: f64,
+    /// Centre (sphere), a point of the axis (cylinder) or of the plane (m).
+    pub position: Vector<D>,
+    /// Velocity (m/s).
+    pub velocity: Vector<D>,
+    /// Force of the body on the impactor at the last evaluation (N).
+    pub force: Vector<D>,
+    /// Penalty energy at the last evaluation (J).
+    pub energy: f64,
+    /// The force at the start of the current step (for the work of a prescribed motion).
+    force_start: Vector<D>,
+}
+
+impl<const D: usize> Impactor<D> {
+    pub fn new(
+        name: String,
+        shape: ImpactorShape<D>,
+        motion: Motion,
+        stiffness: f64,
+        position: Vector<D>,
+        velocity: Vector<D>,
+    ) -> Self {
+        Impactor {
+            name,
+            shape,
+            motion,
+            stiffness,
+            position,
+            velocity,
+            force: Vector::zeros(),
+            energy: 0.0,
+            force_start: Vector::zeros(),
+        }
+    }
+
+    /// Depth of a point inside the impactor and the outward normal there, if it is inside.
+    #[inline]
+    fn penetration(&self, y: &Vector<D>) -> Option<(f64, Vector<D>)> {
+        let d = y - self.position;
+        let round = |d: Vector<D>, radius: f64| {
+            let r2 = d.norm_squared();
+            if r2 >= radius * radius || r2 == 0.0 {
+                return None;
+            }
+            let r = r2.sqrt();
+            Some((radius - r, d / r))
+        };
+        match self.shape {
+            ImpactorShape::Plane { normal, extent } => {
+                let h = d.dot(&normal);
+                if h >= 0.0 {
+                    return None;
+                }
+                if let Some(e) = extent {
+                    if (d - normal * h).norm_squared() > e * e {
+                        return None;
+                    }
+                }
+                Some((-h, normal))
+            }
+            ImpactorShape::Sphere { radius } => round(d, radius),
+            ImpactorShape::Cylinder { radius } => {
+                let mut d = d;
+                if D == 3 {
+                    d[2] = 0.0;
+                }
+                round(d, radius)
+            }
+        }
+    }
+
+    /// Adds the penalty force densities F/V_i to `state.force`; keeps the reaction on the
+    /// impactor and the penalty energy.
+    fn add_forces(&mut self, body: &Body<D>, state: &mut State<D>) {
+        let k = self.stiffness;
+        let this = &*self;
+        let (current, volumes) = (&state.current, &body.volumes);
+        let chunks: Vec<(Vector<D>, f64)> = state
+            .force
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, forces)| {
+                let (mut total, mut energy) = (Vector::<D>::zeros(), 0.0);
+                for (m, f) in forces.iter_mut().enumerate() {
+                    let i = c * CHUNK + m;
+                    if let Some((p, n)) = this.penetration(&current[i]) {
+                        // LAMMPS fix indent: F = K p² along the outward normal.
+                        let force = n * (k * p * p);
+                        *f += force / volumes[i];
+                        total += force;
+                        energy += k * p * p * p / 3.0;
+                    }
+                }
+                (total, energy)
+            })
+            .collect();
+        let (mut total, mut energy) = (Vector::<D>::zeros(), 0.0);
+        for (f, e) in chunks {
+            total += f;
+            energy += e;
+        }
+        self.force = -total;
+        self.energy = energy;
+    }
+
+    /// Kinetic energy of a free impactor (J); a prescribed one's is the driver's business.
+    pub fn kinetic_energy(&self) -> f64 {
+        match self.motion {
+            Motion::Free { mass } => 0.5 * mass * self.velocity.norm_squared(),
+            Motion::Prescribed => 0.0,
+        }
+    }
+}
+
+/// The impactors of a run (empty: none, at no cost).
+#[derive(Debug, Clone, Default)]
+pub struct Impactors<const D: usize> {
+    pub list: Vec<Impactor<D>>,
+}
+
+impl<const D: usize> Impactors<D> {
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Start of a velocity-Verlet step: a free impactor's half-kick with the last force, then
+    /// every impactor's drift over dt.
+    pub fn begin_step(&mut self, dt: f64) {
+        for im in &mut self.list {
+            im.force_start = im.force;
+            if let Motion::Free { mass } = im.motion {
+                im.velocity += im.force * (0.5 * dt / mass);
+            }
+            im.position += im.velocity * dt;
+        }
+    }
+
+    /// Adds every impactor's penalty forces to `state.force` at the current positions.
+    pub fn add_forces(&mut self, body: &Body<D>, state: &mut State<D>) {
+        for im in &mut self.list {
+            im.add_forces(body, state);
+        }
+    }
+
+    /// End of a step: a free impactor's second half-kick. Returns the work that the drivers
+    /// of prescribed impactors did on the body over the step (J): the driver holds the
+    /// impactor against the body's force F, so its work is −F·v dt (trapezoidal rule in F).
+    pub fn end_step(&mut self, dt: f64) -> f64 {
+        let mut work = 0.0;
+        for im in &mut self.list {
+            match im.motion {
+                Motion::Free { mass } => im.velocity += im.force * (0.5 * dt / mass),
+                Motion::Prescribed => {
+                    work -= 0.5 * (im.force_start + im.force).dot(&im.velocity) * dt
+                }
+            }
+        }
+        work
+    }
+
+    /// Penalty energy of every impactor (J).
+    pub fn energy(&self) -> f64 {
+        self.list.iter().map(|im| im.energy).sum()
+    }
+
+    /// Kinetic energy of the free impactors (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        self.list.iter().map(|im| im.kinetic_energy()).sum()
+    }
+}
