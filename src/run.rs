@@ -999,14 +999,32 @@ fn explicit_loop<const D: usize, M: Material<D>>(
     if watch.resume.is_none() && sim.state.step == 0 {
         watch.commit(sim, steps == 0, driver(sim))?;
     }
+    let given = energy_given(sim);
     for k in sim.state.step + 1..=steps {
         sim.step()?;
         if k % 100 == 0 || k == steps {
             sim.check_finite()?;
         }
+        // Every 10 steps: an O(nodes) sum that sees an instability before it overflows.
+        if k % 10 == 0 || k == steps {
+            sim.check_energy(given)?;
+        }
         watch.commit(sim, k == steps, driver(sim))?;
     }
     Ok(())
+}
+
+/// The energy a loop starts with (kinetic and strain energy, and contact's: penalty energy
+/// and the impactors' kinetic energy), and the external work done until then: what
+/// `Simulation::check_energy` measures the energy given against.
+fn energy_given<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> (f64, f64) {
+    (
+        sim.kinetic_energy()
+            + sim.strain_energy()
+            + Fields::contact_energy(sim)
+            + Fields::impactor_kinetic_energy(sim),
+        sim.state.external_work,
+    )
 }
 
 /// The explicit loop with an adaptive time step: committed steps until `end_time` (the last
@@ -1045,6 +1063,7 @@ fn adaptive_loop<const D: usize, M: Material<D>>(
         watch.commit(sim, end_time <= slack, driver(sim, &controller))?;
     }
     let mut k = sim.state.step;
+    let given = energy_given(sim);
     while end_time - sim.state.time > slack {
         sim.dt = sim.dt.min(end_time - sim.state.time);
         controller.step(sim)?;
@@ -1052,6 +1071,9 @@ fn adaptive_loop<const D: usize, M: Material<D>>(
         let last = end_time - sim.state.time <= slack;
         if k.is_multiple_of(100) || last {
             sim.check_finite()?;
+        }
+        if k.is_multiple_of(10) || last {
+            sim.check_energy(given)?;
         }
         watch.commit(sim, last, driver(sim, &controller))?;
     }

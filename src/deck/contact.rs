@@ -180,7 +180,12 @@ pub fn validate(out: &mut Vec<DeckIssue>, deck: &Deck) {
         positive(out, &at("radius"), im.radius, "the radius (m)");
         positive(out, &at("extent"), im.extent, "the extent (m)");
         positive(out, &at("mass"), im.mass, "the mass (kg)");
-        positive(out, &at("stiffness"), im.stiffness, "the penalty constant K (N/m²)");
+        positive(
+            out,
+            &at("stiffness"),
+            im.stiffness,
+            "the penalty constant K (N/m²)",
+        );
         for (key, v) in [("centre", &im.centre), ("point", &im.point)] {
             if let Some(v) = v {
                 vector(out, &at(key), v, d);
@@ -275,7 +280,8 @@ pub fn impactors<const D: usize>(deck: &Deck, s: &Scales) -> Impactors<D> {
             Impactor::new(
                 im.name.clone(),
                 shape,
-                im.mass.map_or(Motion::Prescribed, |mass| Motion::Free { mass }),
+                im.mass
+                    .map_or(Motion::Prescribed, |mass| Motion::Free { mass }),
                 im.stiffness.unwrap_or_else(|| default_penalty(s)),
                 vector_from_slice(at),
                 vector_from_slice(&im.velocity),

@@ -67,7 +67,8 @@ impl History {
         for name in impactors {
             for what in ["force", "position", "velocity"] {
                 for axis in AXES.iter().take(D) {
-                    self.csv.add_column(format!("impactor_{name}_{what}_{axis}"));
+                    self.csv
+                        .add_column(format!("impactor_{name}_{what}_{axis}"));
                 }
             }
         }
@@ -116,7 +117,11 @@ impl<const D: usize> Observer<D> for History {
         } else {
             (0.0, 0.0)
         };
-        let stored = if self.contact { ek + es + ec + ei } else { ek + es };
+        let stored = if self.contact {
+            ek + es + ec + ei
+        } else {
+            ek + es
+        };
         let mut row = vec![
             state.time,
             state.step as f64,

@@ -20,7 +20,7 @@ use std::time::Instant;
 pub enum StepError {
     #[error("the material cannot be set up on these bonds: {0}")]
     Setup(#[from] PointError),
-    #[error("the run went unstable at step {step} (t = {time:e} s): {quantity} of node {node} at x = {position:?} is {value}; lower the time step (safety_factor) or check the loads")]
+    #[error("the run went unstable at step {step} (t = {time:e} s): {quantity} of node {node} at x = {position:?} is {value:.4e}; lower the time step (safety_factor) or check the loads")]
     Unstable {
         step: u64,
         time: f64,
@@ -298,6 +298,36 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             }
         }
         Ok(())
+    }
+
+    /// Stops a run whose kinetic energy has grown past ten times the energy it was given:
+    /// `start` = (kinetic + strain energy, external work) when the loop started, so the energy
+    /// given is the first plus the work done since. Energy from nowhere is an instability,
+    /// caught long before it overflows into NaN. Names the node with the largest kinetic
+    /// energy. A body given no energy is not checked.
+    pub fn check_energy(&self, start: (f64, f64)) -> Result<(), StepError> {
+        let given = start.0 + (self.state.external_work - start.1).abs();
+        if given <= 0.0 {
+            return Ok(());
+        }
+        let kinetic = self.kinetic_energy();
+        if kinetic <= 10.0 * given {
+            return Ok(());
+        }
+        let node_energy =
+            |i: usize| self.densities[i] * self.body.volumes[i] * self.state.v[i].norm_squared();
+        let node = (0..self.body.len())
+            .max_by(|&a, &b| node_energy(a).total_cmp(&node_energy(b)))
+            .unwrap_or(0);
+        Err(StepError::Unstable {
+            step: self.state.step,
+            time: self.state.time,
+            node,
+            position: self.body.positions[node].iter().cloned().collect(),
+            quantity:
+                "speed (m/s; the body's kinetic energy is more than ten times the energy put in)",
+            value: self.state.v[node].norm(),
+        })
     }
 
     /// Kinetic energy (J).

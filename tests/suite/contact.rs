@@ -6,8 +6,8 @@
 
 use crate::common::pmb_deck_simulation;
 use peridyn::deck::LoadedDeck;
-use peridyn::math::Vector;
 use peridyn::material::Pmb;
+use peridyn::math::Vector;
 use peridyn::run::{run, RunOptions};
 use peridyn::solver::{Fields, Simulation};
 use std::path::Path;
@@ -100,7 +100,9 @@ fn min_distance(sim: &Simulation<2, Pmb>, a: &[u32], b: &[u32]) -> f64 {
 /// Total energy with contact: kinetic + strain + contact (node pairs and penalty) + the free
 /// impactors' kinetic energy, minus the external work.
 fn total_energy(sim: &Simulation<2, Pmb>) -> f64 {
-    sim.kinetic_energy() + sim.strain_energy() + Fields::contact_energy(sim)
+    sim.kinetic_energy()
+        + sim.strain_energy()
+        + Fields::contact_energy(sim)
         + Fields::impactor_kinetic_energy(sim)
         - sim.state.external_work
 }
@@ -141,7 +143,10 @@ fn colliding_blocks_rebound_without_interpenetrating() {
             break;
         }
     }
-    let (t0, t1) = (touched_at.unwrap(), apart_at.expect("the blocks separate again"));
+    let (t0, t1) = (
+        touched_at.unwrap(),
+        apart_at.expect("the blocks separate again"),
+    );
     let v_left = momentum(&sim, &left)[0] / m_left;
     let v_right = momentum(&sim, &right)[0] / m_right;
     // Coefficient of restitution: relative speed after over before.
@@ -161,9 +166,19 @@ fn colliding_blocks_rebound_without_interpenetrating() {
         (0.5 * m_left * v_left * v_left + 0.5 * m_right * v_right * v_right) / e_kin,
         sim.contact.as_ref().unwrap().rebuilds
     );
-    assert!(closest > 0.5 * rc, "nodes came within {:.3} r_c", closest / rc);
-    assert!(max_p < 1e-12 * p_scale, "momentum {max_p:e} (m v = {p_scale:e})");
-    assert!(max_drift < 0.01 * e_start, "energy drift {max_drift:e} of {e_start:e}");
+    assert!(
+        closest > 0.5 * rc,
+        "nodes came within {:.3} r_c",
+        closest / rc
+    );
+    assert!(
+        max_p < 1e-12 * p_scale,
+        "momentum {max_p:e} (m v = {p_scale:e})"
+    );
+    assert!(
+        max_drift < 0.01 * e_start,
+        "energy drift {max_drift:e} of {e_start:e}"
+    );
     // Rebound: momentum says v_left = −v_right; an elastic collision of equal bars exchanges
     // the velocities (restitution 1) after a contact of 2L/c. Part of the energy stays in the
     // blocks as vibration (2D waves, lattice dispersion), so the rigid-body restitution is
@@ -263,7 +278,10 @@ fn free_disk_bounces_off_a_plate_conserving_energy() {
     assert!(touched && d.velocity[1] > 0.0, "the disk bounces back");
     // Velocity Verlet is symplectic: the total energy (plate kinetic + strain + penalty + disk
     // kinetic) oscillates at O(dt²) about its start; 1% of the impact energy bounds it.
-    assert!(max_drift < 0.01 * e_start, "energy drift {max_drift:e} of {e_start:e}");
+    assert!(
+        max_drift < 0.01 * e_start,
+        "energy drift {max_drift:e} of {e_start:e}"
+    );
     // The penalty forces are equal and opposite: momentum of plate and disk together is kept.
     assert!(max_p < 1e-9 * m_disk * v0, "momentum error {max_p:e}");
 }
@@ -301,9 +319,15 @@ velocity = [0.0, -2.0]"#,
         im.position[1]
     );
     assert!(w > 0.0 && max_force > 0.0, "the punch pushes and works");
-    assert!(im.velocity[1] == -2.0, "a prescribed impactor keeps its velocity");
+    assert!(
+        im.velocity[1] == -2.0,
+        "a prescribed impactor keeps its velocity"
+    );
     // W_ext = E_kin + E_strain + E_penalty up to the integrator's O(dt²) error.
-    assert!(max_residual < 0.01 * w, "residual {max_residual:e} of {w:e}");
+    assert!(
+        max_residual < 0.01 * w,
+        "residual {max_residual:e} of {w:e}"
+    );
 }
 
 /// Every regular file in `dir` (not recursive), by name, with its bytes.
@@ -348,7 +372,15 @@ fn contact_results_do_not_depend_on_threads() {
         outputs.push(files(&out));
         std::fs::remove_dir_all(&out).ok();
     }
-    let history = String::from_utf8(outputs[0].iter().find(|(n, _)| n == "history.csv").unwrap().1.clone()).unwrap();
+    let history = String::from_utf8(
+        outputs[0]
+            .iter()
+            .find(|(n, _)| n == "history.csv")
+            .unwrap()
+            .1
+            .clone(),
+    )
+    .unwrap();
     let header = history.lines().next().unwrap();
     assert!(header.contains("impactor_disk_force_y") && header.contains("contact_energy"));
     let last = history.lines().last().unwrap();

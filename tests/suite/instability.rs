@@ -52,7 +52,8 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
         ..OutputDeck::default()
     };
     let mut observers: Vec<Box<dyn Observer<2>>> = vec![
-        Box::new(History::new::<2>(&out.join("history.csv"), 10, &[])),
+        // Every step: the energy check stops this run within its first ten steps.
+        Box::new(History::new::<2>(&out.join("history.csv"), 1, &[])),
         Box::new(Snapshots::new(out.clone(), 50, &no_maps, "unstable").unwrap()),
     ];
     let result = drive(&mut sim, 2000, &mut observers);
@@ -84,4 +85,58 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
     );
     assert!(out.join("fields").join("step_00000000.vtu").exists());
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// Energy from nowhere stops a run long before it overflows: a plate vibrating slightly at
+/// twice the stable time step estimate (conservative: 1.5× still runs) grows exponentially; the run stops when its kinetic energy passes
+/// ten times the energy it was given, with every value still finite.
+#[test]
+fn energy_blow_up_stops_the_run_before_any_value_overflows() {
+    let dx = 1e-3;
+    let shape = peridyn::geometry::Shape::Rectangle {
+        min: [0.0; 2],
+        max: [0.02, 0.02],
+    };
+    let cloud = peridyn::discretize::lattice::lattice(&shape, 2, dx, 1e-3).unwrap();
+    let body = peridyn::body::Body::<2>::from_cloud(cloud, 3.0 * dx, 1e-3);
+    let bonds = peridyn::bonds::search::build_bonds(&body, PartialVolume::Hhb, &[]);
+    let pmb = Pmb::calibrated(
+        70e9,
+        2500.0,
+        Dimensionality::PlaneStress,
+        MicromodulusProfile::Constant,
+        3.0 * dx,
+        1e-3,
+    );
+    let mut sim = Simulation::new(
+        body,
+        bonds,
+        pmb,
+        peridyn::damage::CriticalStretch::never(),
+        PartialVolume::Hhb,
+        Loading::default(),
+        Some(1.0),
+        1.0,
+    )
+    .unwrap();
+    sim.dt = 2.0 * sim.dt_stable;
+    for (i, v) in sim.state.v.iter_mut().enumerate() {
+        v[0] = if i % 2 == 0 { 1e-3 } else { -1e-3 };
+    }
+    let err = drive(&mut sim, 100_000, &mut []).expect_err("twice the stable step must blow up");
+    let msg = err.to_string();
+    println!("{msg}");
+    match &err {
+        RunError::Step(StepError::Unstable {
+            quantity, value, ..
+        }) => {
+            assert!(quantity.contains("kinetic energy"), "{msg}");
+            assert!(value.is_finite(), "{msg}");
+        }
+        other => panic!("expected an energy diagnosis, got {other:?}"),
+    }
+    assert!(
+        sim.check_finite().is_ok(),
+        "the guard came after values overflowed"
+    );
 }
