@@ -703,7 +703,7 @@ fn run_model<const D: usize, M: Material<D>>(
     let result = if staged {
         run_stages(&mut sim, settings, &report, plans, &mut watch)
     } else {
-        run_stage(&mut sim, settings, &report, &mut watch)
+        run_stage(&mut sim, settings, &report, (0, 0.0), &mut watch)
     };
     // A stop stands for a kill: the files stay as the last flush left them.
     if !matches!(result, Err(RunError::Stopped(_))) {
@@ -857,7 +857,7 @@ fn run_stages<const D: usize, M: Material<D>>(
 ) -> Result<(), RunError> {
     let count = plans.len() + 1;
     watch.final_stage = count == 1;
-    run_stage(sim, first, &report.stages[0], watch)?;
+    run_stage(sim, first, &report.stages[0], (0, 0.0), watch)?;
     for (k, plan) in plans.into_iter().enumerate() {
         let index = k + 1;
         let stage = &report.stages[index];
@@ -878,20 +878,22 @@ fn run_stages<const D: usize, M: Material<D>>(
             o.begin_stage(&start);
         }
         watch.final_stage = index + 1 == count;
-        run_stage(sim, plan.settings, stage, watch)?;
+        let from = (sim.state.step, sim.state.time);
+        run_stage(sim, plan.settings, stage, from, watch)?;
     }
     Ok(())
 }
 
-/// One stage with its solver, from the current step and time: `stage` gives its steps and
-/// duration (a `ModelReport` or `StageReport`).
+/// One stage with its solver: `stage` gives its steps and duration (a `ModelReport` or
+/// `StageReport`), `start` the step and time it started at (a run continued from a checkpoint
+/// is past them).
 fn run_stage<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     settings: SolverSettings,
     stage: &impl StageLength,
+    (step, time): (u64, f64),
     watch: &mut Watch<D>,
 ) -> Result<(), RunError> {
-    let (step, time) = (sim.state.step, sim.state.time);
     match (settings.quasi_static, settings.adaptive) {
         (Some(qs), _) => quasi_static_loop(sim, qs, stage.steps(), watch),
         (None, Some(a)) => {
