@@ -1,6 +1,7 @@
 //! Throughput benchmark of the force loop plus integration for every model and damage law,
 //! 2D and 3D, at δ/Δx = 3, single- and multi-threaded, best of three repetitions.
-//! `peridyn bench` prints the table; `--cases` picks rows.
+//! `peridyn bench` prints the table; `--cases` picks rows. The quasi-static cases (issue 7)
+//! time one elastic load step of a plate in tension to equilibrium with each method.
 
 use crate::body::Body;
 use crate::bonds::{search::build_bonds, Bonds, PartialVolume};
@@ -9,14 +10,14 @@ use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
 use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
 use crate::discretize::lattice::lattice;
 use crate::geometry::Shape;
-use crate::loading::Loading;
+use crate::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
 use crate::material::correspondence::ZeroEnergyControl;
 use crate::material::mixed::BlockMaterial;
 use crate::material::{
     Correspondence, Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile,
     Mixed, Pmb,
 };
-use crate::solver::Simulation;
+use crate::solver::{EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
 use std::time::Instant;
 
 /// One measured case.
@@ -273,18 +274,19 @@ pub fn run_benchmarks(
     only: &[String],
 ) -> Result<Vec<BenchResult>, String> {
     if only.iter().any(|c| c == "list") {
-        for case in CASES.iter().chain(&GRID_CASES) {
+        for case in CASES.iter().chain(&SOLVER_CASES).chain(&GRID_CASES) {
             println!("{case}");
         }
         return Ok(Vec::new());
     }
-    if let Some(bad) = only
-        .iter()
-        .find(|c| !CASES.contains(&c.as_str()) && !GRID_CASES.contains(&c.as_str()))
-    {
+    if let Some(bad) = only.iter().find(|c| {
+        let c = c.as_str();
+        !CASES.contains(&c) && !SOLVER_CASES.contains(&c) && !GRID_CASES.contains(&c)
+    }) {
         return Err(format!(
-            "unknown benchmark case {bad:?}; cases: {}, {}",
+            "unknown benchmark case {bad:?}; cases: {}, {}, {}",
             CASES.join(", "),
+            SOLVER_CASES.join(", "),
             GRID_CASES.join(", ")
         ));
     }
@@ -301,31 +303,66 @@ pub fn run_benchmarks(
         threads.to_vec()
     };
     let mut results = Vec::new();
-    println!(
-        "{:<26} {:>7} {:>9} {:>10} {:>16} {:>18} {:>10}",
-        "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond"
-    );
-    for &t in &threads {
-        for name in CASES
-            .into_iter()
-            .filter(|c| only.is_empty() || only.iter().any(|o| o == c))
-        {
-            let r = if name.ends_with("2d") {
-                case::<2>(name, target_bonds, steps, t)
-            } else {
-                case::<3>(name, target_bonds, steps, t)
-            };
-            println!(
-                "{:<26} {:>7} {:>9} {:>10.1} {:>16.3e} {:>18.3e} {:>10.0}",
-                r.case,
-                r.threads,
-                r.nodes,
-                r.bonds_per_node,
-                r.node_steps_per_second,
-                r.bond_evaluations_per_second,
-                r.bytes_per_bond
-            );
-            results.push(r);
+    let wanted = |c: &str| only.is_empty() || only.iter().any(|o| o == c);
+    let forces: Vec<&str> = CASES.into_iter().filter(|c| wanted(c)).collect();
+    if !forces.is_empty() {
+        println!(
+            "{:<26} {:>7} {:>9} {:>10} {:>16} {:>18} {:>10}",
+            "case", "threads", "nodes", "bonds/node", "node-steps/s", "bond-evals/s", "bytes/bond"
+        );
+        for &t in &threads {
+            for &name in &forces {
+                let r = if name.ends_with("2d") {
+                    case::<2>(name, target_bonds, steps, t)
+                } else {
+                    case::<3>(name, target_bonds, steps, t)
+                };
+                println!(
+                    "{:<26} {:>7} {:>9} {:>10.1} {:>16.3e} {:>18.3e} {:>10.0}",
+                    r.case,
+                    r.threads,
+                    r.nodes,
+                    r.bonds_per_node,
+                    r.node_steps_per_second,
+                    r.bond_evaluations_per_second,
+                    r.bytes_per_bond
+                );
+                results.push(r);
+            }
+        }
+    }
+    // Opt-in: a relaxation at the default size takes tens of seconds, three times over.
+    let solvers: Vec<&str> = SOLVER_CASES
+        .into_iter()
+        .filter(|c| only.iter().any(|o| o == c))
+        .collect();
+    if !solvers.is_empty() {
+        println!(
+            "\n{:<10} {:>7} {:>9} {:>10} {:>11} {:>9} {:>13} {:>18}",
+            "solver",
+            "threads",
+            "nodes",
+            "bonds/node",
+            "iterations",
+            "seconds",
+            "iterations/s",
+            "node-iterations/s"
+        );
+        for &t in &threads {
+            for &name in &solvers {
+                let r = solver_case(name, target_bonds, t);
+                println!(
+                    "{:<10} {:>7} {:>9} {:>10.1} {:>11} {:>9.3} {:>13.1} {:>18.3e}",
+                    r.case,
+                    r.threads,
+                    r.nodes,
+                    r.bonds_per_node,
+                    r.iterations,
+                    r.seconds,
+                    r.iterations as f64 / r.seconds,
+                    r.nodes as f64 * r.iterations as f64 / r.seconds
+                );
+            }
         }
     }
     let grids: Vec<&str> = GRID_CASES
@@ -352,6 +389,97 @@ pub fn run_benchmarks(
         }
     }
     Ok(results)
+}
+
+/// Quasi-static equilibrium cases (issue 7): one elastic load step of a square PMB plate
+/// (plane stress, δ = 3Δx, the size of the force cases) whose top three rows are pulled up by
+/// a strain of 1e-4 over the bottom three, held, relaxed to the default relative residual 1e-6
+/// by adaptive dynamic relaxation or nonlinear conjugate gradients. Measured only when named
+/// in `--cases`.
+pub const SOLVER_CASES: [&str; 2] = ["adr-2d", "ncg-2d"];
+
+/// One measured equilibrium: iterations (ADR) or force evaluations (NCG) to converge, and the
+/// best of three wall times of the whole load step.
+#[derive(Debug, Clone)]
+pub struct SolverBench {
+    pub case: String,
+    pub threads: usize,
+    pub nodes: usize,
+    pub bonds_per_node: f64,
+    pub iterations: u64,
+    pub seconds: f64,
+}
+
+/// Measures one quasi-static case on `threads` threads.
+pub fn solver_case(name: &str, target_bonds: usize, threads: usize) -> SolverBench {
+    let method = if name == "ncg-2d" {
+        EquilibriumMethod::Ncg
+    } else {
+        EquilibriumMethod::Adr
+    };
+    let (body, bonds) = block::<2>(target_bonds, PartialVolume::Hhb, false);
+    let side = body.positions.iter().map(|p| p[1]).fold(0.0, f64::max) + 0.5 * DX;
+    let rows = |keep: &dyn Fn(f64) -> bool| -> Vec<u32> {
+        (0..body.len() as u32)
+            .filter(|&i| keep(body.positions[i as usize][1]))
+            .collect()
+    };
+    let top = rows(&|y| y > side - 3.0 * DX);
+    let bottom = rows(&|y| y < 3.0 * DX);
+    let condition = |set: &str, nodes: Vec<u32>, value: f64| BoundaryCondition {
+        set: set.to_string(),
+        nodes,
+        kind: Kinematic::Displacement,
+        component: 1,
+        value,
+        time: TimeFunction::Ramp { duration: 1.0 },
+    };
+    let loading = Loading::<2> {
+        conditions: vec![
+            condition("bottom", bottom, 0.0),
+            condition("top", top, 1e-4 * side),
+        ],
+        ..Default::default()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
+    pool.install(|| {
+        let mut sim = Simulation::new(
+            body,
+            bonds,
+            pmb::<2>(),
+            Damage::none(),
+            PartialVolume::Hhb,
+            loading,
+            Some(1.0),
+            1.0,
+        )
+        .expect("benchmark model");
+        let settings = QuasiStaticSettings {
+            method,
+            ..Default::default()
+        };
+        let initial = sim.state.clone();
+        let (mut iterations, mut seconds) = (0, f64::INFINITY);
+        for _ in 0..3 {
+            sim.state = initial.clone();
+            let started = Instant::now();
+            let mut solver = QuasiStatic::new(&sim, settings.clone(), 1.0);
+            let report = solver.advance(&mut sim, 1.0).expect("benchmark relaxation");
+            seconds = seconds.min(started.elapsed().as_secs_f64());
+            iterations = report.iterations;
+        }
+        SolverBench {
+            case: name.to_string(),
+            threads,
+            nodes: sim.body.len(),
+            bonds_per_node: sim.bonds.len() as f64 / sim.body.len() as f64,
+            iterations,
+            seconds,
+        }
+    })
 }
 
 /// Grid generation cases (issue 6): 10⁶ nodes of seed 000's NB-NUG around 20 holes, and a
@@ -478,6 +606,17 @@ mod tests {
         let listed = run_benchmarks(1000, 1, &[1], &["list".to_string()]).unwrap();
         assert!(listed.is_empty());
         let err = run_benchmarks(1000, 1, &[1], &["nope".to_string()]).unwrap_err();
-        assert!(err.contains("pmb-3d"), "{err}");
+        assert!(err.contains("pmb-3d") && err.contains("ncg-2d"), "{err}");
+    }
+
+    #[test]
+    fn a_small_plate_relaxes_with_both_methods() {
+        for case in SOLVER_CASES {
+            let r = solver_case(case, 30_000, 1);
+            assert!(
+                r.nodes >= 1000 && r.iterations > 0 && r.seconds > 0.0,
+                "{r:?}"
+            );
+        }
     }
 }

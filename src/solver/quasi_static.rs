@@ -22,6 +22,12 @@
 //! free ones, or the largest such loading of an earlier equilibrium) — the out-of-balance
 //! force against the forces that load the body — at most `tolerance`.
 //!
+//! Each relaxation after the first load step starts from the last committed step's
+//! displacement increment extrapolated to the new load (u = u_k + (t_{k+1} − t_k)/(t_k −
+//! t_{k−1}) (u_k − u_{k−1}) on the free components): in an elastic stretch of the loading the
+//! start is then nearly the equilibrium, and the relaxation only removes the difference. The
+//! equilibrium it reaches is the same (the damage state is frozen while it relaxes).
+//!
 //! While the body relaxes no bond may break or soften: every node is protected (the no-fail
 //! mechanism), so the damage state is the one of the last decision (a secant iteration for
 //! softening laws, exact for critical stretch). Work-based laws still record the work along
@@ -110,6 +116,11 @@ pub struct QuasiStatic<const D: usize> {
     largest_load: f64,
     /// The conjugate-gradient minimiser, when that is the method.
     ncg: Option<Ncg<D>>,
+    /// The load parameter and displacements at the start of the last committed step: the
+    /// predictor's previous point.
+    previous: Option<(f64, Vec<Vector<D>>)>,
+    /// Start each load step from the extrapolated increment (on by default).
+    pub predictor: bool,
     /// Total ADR iterations.
     pub iterations: u64,
 }
@@ -141,6 +152,8 @@ impl<const D: usize> QuasiStatic<D> {
             frozen: vec![true; n],
             largest_load: 0.0,
             ncg,
+            previous: None,
+            predictor: true,
             iterations: 0,
         }
     }
@@ -196,6 +209,26 @@ impl<const D: usize> QuasiStatic<D> {
             sim.state.u.clone(),
             self.applied_forces(sim),
         );
+        if let Some((t_prev, u_prev)) = self.previous.as_ref().filter(|_| self.predictor) {
+            // The last step's increment, scaled to this one, on the free components.
+            let ratio = (t1 - t0) / (t0 - t_prev);
+            let (mask, positions) = (&sim.constrained_mask, &sim.body.positions);
+            let s = &mut sim.state;
+            (&mut s.u, &mut s.current)
+                .into_par_iter()
+                .zip(u_prev.par_iter())
+                .enumerate()
+                .with_min_len(4096)
+                .for_each(|(i, ((u, y), up))| {
+                    let step = (*u - up) * ratio;
+                    for k in 0..D {
+                        if !mask[i][k] {
+                            u[k] += step[k];
+                        }
+                    }
+                    *y = positions[i] + *u;
+                });
+        }
         sim.loading
             .apply_displacements(&sim.body, &mut sim.state, t1);
         sim.state.time = t1;
@@ -236,6 +269,7 @@ impl<const D: usize> QuasiStatic<D> {
         }
         self.largest_load = self.largest_load.max(self.residual(sim).2);
         sim.state.external_work += self.step_work(sim, &u0, &load0);
+        self.previous = Some((t0, u0));
         sim.state.dt = t1 - t0;
         sim.state.iterations = report.iterations;
         sim.state.step += 1;

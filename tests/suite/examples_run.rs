@@ -258,3 +258,29 @@ fn kalthoff_winkler_punch_works_on_the_plate() {
         (k + s) / w
     );
 }
+
+/// Seed 001's plate with a hole, quasi-static, bilinear and PMB: the first load steps (20 µm
+/// per side, below the bilinear law's peak stretch at the hole) load it elastically.
+#[test]
+fn seed001_plate_hole_loads_elastically_at_first() {
+    for (name, steps) in [
+        ("seed001_plate_hole_bilinear.toml", 4u64),
+        ("seed001_plate_hole_pmb.toml", 2),
+    ] {
+        let mut ld = deck(name);
+        let SolverDeck::QuasiStatic {
+            load_steps,
+            end_time,
+            ..
+        } = &mut ld.deck.solver
+        else {
+            panic!("{name}: a quasi-static deck")
+        };
+        // The first `steps` of the deck's load steps.
+        *end_time = steps as f64 / *load_steps as f64;
+        let r = run_steps(ld, Some(steps));
+        assert_eq!(r.broken_bonds, 0, "{name}");
+        assert_eq!(r.kinetic_energy, 0.0, "{name}");
+        assert_work_stored(name, &r, 0.01);
+    }
+}

@@ -12,6 +12,7 @@ mod crack_path_run;
 mod crack_tracking;
 mod deck_errors;
 mod decks_good;
+mod delta_convergence;
 mod determinism;
 mod dual_horizon;
 mod energy_accounting;
