@@ -11,8 +11,9 @@ use peridyn::observe::Observer;
 use peridyn::run::{drive, RunError};
 use peridyn::solver::{Simulation, StepError};
 
-#[test]
-fn blow_up_is_diagnosed_and_outputs_survive() {
+/// A 20 mm square PMB plate (Δx = 1 mm, δ = 3Δx, no damage) stepped at `factor` × the
+/// stable time step estimate, its nodes moving at ±`speed` in x alternately (the highest mode).
+fn vibrating_plate(factor: f64, speed: f64) -> Simulation<2, Pmb> {
     let dx = 1e-3;
     let shape = peridyn::geometry::Shape::Rectangle {
         min: [0.0; 2],
@@ -29,7 +30,6 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
         3.0 * dx,
         1e-3,
     );
-    // Five times the stable step (the deck layer refuses this; the library lets a user try).
     let mut sim = Simulation::new(
         body,
         bonds,
@@ -41,10 +41,17 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
         1.0,
     )
     .unwrap();
-    sim.dt = 5.0 * sim.dt_stable;
+    sim.dt = factor * sim.dt_stable;
     for (i, v) in sim.state.v.iter_mut().enumerate() {
-        v[0] = if i % 2 == 0 { 1.0 } else { -1.0 };
+        v[0] = if i % 2 == 0 { speed } else { -speed };
     }
+    sim
+}
+
+#[test]
+fn blow_up_is_diagnosed_and_outputs_survive() {
+    // Five times the stable step (the deck layer refuses this; the library lets a user try).
+    let mut sim = vibrating_plate(5.0, 1.0);
     let out = std::env::temp_dir().join(format!("peridyn-unstable-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
     let no_maps = OutputDeck {
@@ -92,37 +99,7 @@ fn blow_up_is_diagnosed_and_outputs_survive() {
 /// ten times the energy it was given, with every value still finite.
 #[test]
 fn energy_blow_up_stops_the_run_before_any_value_overflows() {
-    let dx = 1e-3;
-    let shape = peridyn::geometry::Shape::Rectangle {
-        min: [0.0; 2],
-        max: [0.02, 0.02],
-    };
-    let cloud = peridyn::discretize::lattice::lattice(&shape, 2, dx, 1e-3).unwrap();
-    let body = peridyn::body::Body::<2>::from_cloud(cloud, 3.0 * dx, 1e-3);
-    let bonds = peridyn::bonds::search::build_bonds(&body, PartialVolume::Hhb, &[]);
-    let pmb = Pmb::calibrated(
-        70e9,
-        2500.0,
-        Dimensionality::PlaneStress,
-        MicromodulusProfile::Constant,
-        3.0 * dx,
-        1e-3,
-    );
-    let mut sim = Simulation::new(
-        body,
-        bonds,
-        pmb,
-        peridyn::damage::CriticalStretch::never(),
-        PartialVolume::Hhb,
-        Loading::default(),
-        Some(1.0),
-        1.0,
-    )
-    .unwrap();
-    sim.dt = 2.0 * sim.dt_stable;
-    for (i, v) in sim.state.v.iter_mut().enumerate() {
-        v[0] = if i % 2 == 0 { 1e-3 } else { -1e-3 };
-    }
+    let mut sim = vibrating_plate(2.0, 1e-3);
     let err = drive(&mut sim, 100_000, &mut []).expect_err("twice the stable step must blow up");
     let msg = err.to_string();
     println!("{msg}");
