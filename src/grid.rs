@@ -29,8 +29,12 @@ pub struct GridReport {
     /// Smallest and largest distance from a node to its nearest neighbour (m).
     pub min_spacing: f64,
     pub max_spacing: f64,
-    /// Sum of the nodes' areas (2D, without the thickness) or volumes (3D).
+    /// Sum of the nodes' areas (2D, without the thickness) or volumes (3D), boundary layers
+    /// left out.
     pub measure: f64,
+    /// Nodes and measure of the fictitious boundary layers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub layers: Option<(usize, f64)>,
     /// The shape's area or volume, measured by sampling, when the deck gives a shape.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shape_measure: Option<f64>,
@@ -51,6 +55,9 @@ impl std::fmt::Display for GridReport {
                 s
             )?;
         }
+        if let Some((nodes, measure)) = self.layers {
+            write!(f, "; boundary layers {nodes} nodes, measure {measure:.6e}")?;
+        }
         Ok(())
     }
 }
@@ -65,13 +72,20 @@ pub fn deck_shape(ld: &LoadedDeck) -> Option<&Shape> {
     }
 }
 
-/// Statistics of a body and its bonds (the nearest neighbour of a node is among its bonds).
+/// Statistics of a body and its bonds (the nearest neighbour of a node is among its bonds),
+/// the deck's boundary layers counted apart.
 pub fn grid_report<const D: usize>(
+    ld: &LoadedDeck,
     body: &Body<D>,
     bonds: &Bonds,
-    thickness: f64,
-    shape: Option<&Shape>,
 ) -> GridReport {
+    let thickness = ld.deck.thickness.unwrap_or(1.0);
+    let mut in_layer = vec![false; body.len()];
+    for layer in &ld.deck.boundary_layers {
+        for i in body.node_set(&layer.name).expect("a layer is a node set") {
+            in_layer[i as usize] = true;
+        }
+    }
     let nearest: Vec<f64> = (0..body.len())
         .into_par_iter()
         .map(|i| {
@@ -82,6 +96,12 @@ pub fn grid_report<const D: usize>(
         })
         .collect();
     let per_area = if D == 2 { 1.0 / thickness } else { 1.0 };
+    let measure_of = |layers: bool| -> f64 {
+        (body.volumes.iter().zip(&in_layer))
+            .filter(|(_, &l)| l == layers)
+            .map(|(v, _)| v)
+            .sum()
+    };
     GridReport {
         nodes: body.len(),
         min_spacing: nearest.iter().cloned().fold(f64::INFINITY, f64::min),
@@ -90,8 +110,12 @@ pub fn grid_report<const D: usize>(
             .cloned()
             .filter(|d| d.is_finite())
             .fold(0.0, f64::max),
-        measure: body.volumes.iter().sum::<f64>() * per_area,
-        shape_measure: shape.and_then(|s| shape_measure(s, D)),
+        measure: measure_of(false) * per_area,
+        layers: (!ld.deck.boundary_layers.is_empty()).then(|| {
+            let nodes = in_layer.iter().filter(|&&l| l).count();
+            (nodes, measure_of(true) * per_area)
+        }),
+        shape_measure: deck_shape(ld).and_then(|s| shape_measure(s, D)),
     }
 }
 
@@ -132,9 +156,7 @@ pub fn write_grid(ld: &LoadedDeck, out: &Path) -> Result<GridReport, RunError> {
 fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridReport, RunError> {
     let model = build_model::<D>(ld)?;
     let body = &model.body;
-    let thickness = ld.deck.thickness.unwrap_or(1.0);
-    let shape = deck_shape(ld);
-    let report = grid_report(body, &model.bonds, thickness, shape);
+    let report = grid_report(ld, body, &model.bonds);
     std::fs::create_dir_all(out)?;
     if let Some(text) = &model.pores {
         crate::atomic_file::write_atomic(&out.join("pores.txt"), text.as_bytes())?;
@@ -180,7 +202,7 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
         ],
     )?;
     if D == 2 {
-        let outline: Vec<[[f64; 2]; 2]> = shape
+        let outline: Vec<[[f64; 2]; 2]> = deck_shape(ld)
             .and_then(|s| boundary_segments(s, report.min_spacing).ok())
             .unwrap_or_default()
             .into_iter()

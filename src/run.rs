@@ -397,12 +397,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         ..
     } = model;
     let history_bytes = damage.bytes_per_bond(M::CENTRAL);
-    let grid = crate::grid::grid_report(
-        &body,
-        &bonds,
-        ld.deck.thickness.unwrap_or(1.0),
-        crate::grid::deck_shape(ld),
-    );
+    let grid = crate::grid::grid_report(ld, &body, &bonds);
     let mut sim = Simulation::new(
         body,
         bonds,

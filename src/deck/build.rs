@@ -13,7 +13,7 @@ use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
 use crate::damage::DamageLaw;
 use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
 use crate::discretize::gmsh::read_gmsh;
-use crate::discretize::{lattice, NodeCloud};
+use crate::discretize::{boundary_layer, lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
 use crate::loading::{InitialVelocity, Loading};
 use crate::material::correspondence::ZeroEnergyControl;
@@ -289,6 +289,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         )]));
     }
     let mesh_set_names: Vec<String> = mesh_sets.keys().cloned().collect();
+    let (cloud, mesh_sets) = with_boundary_layers::<D>(ld, cloud, mesh_sets, horizon)?;
     let mut body = Body::<D>::from_cloud_with_sets(cloud, mesh_sets, horizon, thickness);
     // A refined lattice with a horizon ratio: δ_i = m Δx_i (seed 003), dual-horizon PD.
     if let Discretization::Lattice {
@@ -341,7 +342,8 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     if !issues.is_empty() {
         return Err(ld.locate(issues));
     }
-    for name in &deck.no_fail {
+    let layers_holding = deck.boundary_layers.iter().filter(|l| l.no_fail);
+    for name in deck.no_fail.iter().chain(layers_holding.map(|l| &l.name)) {
         let nodes = body.node_set(name).expect("validated set name");
         body.mark_no_fail(&nodes);
     }
@@ -429,6 +431,60 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         pores: pores_record,
         stages,
     })
+}
+
+/// The cloud with the deck's fictitious boundary layers added, each a node set of its name.
+fn with_boundary_layers<const D: usize>(
+    ld: &LoadedDeck,
+    mut cloud: NodeCloud,
+    mut sets: BTreeMap<String, Vec<u32>>,
+    horizon: f64,
+) -> Result<(NodeCloud, BTreeMap<String, Vec<u32>>), DeckError> {
+    let deck = &ld.deck;
+    let grid_spacing = match &deck.discretization {
+        Discretization::Lattice { spacing, .. } => Some(*spacing),
+        Discretization::FreeMesh { size, .. } | Discretization::Nbnug { size, .. } => Some(*size),
+        Discretization::PointCloud { .. } | Discretization::Gmsh { .. } => None,
+    };
+    // The widest horizon of the body: every node near the face then has a full family.
+    let widest = deck
+        .blocks
+        .iter()
+        .filter_map(|b| b.horizon)
+        .fold(horizon, f64::max);
+    let thickness = deck.thickness.unwrap_or(1.0);
+    // Faces are those of the body alone, not of the layers added before: a mesh's are its
+    // shape's (its cells follow the boundary), a lattice's or a file's those of its cells.
+    let body_box = match &deck.discretization {
+        Discretization::FreeMesh { shape, .. } | Discretization::Nbnug { shape, .. } => {
+            let (lo, hi) = shape.bounding_box().expect("a meshed shape is bounded");
+            let corner = |c: Vec<f64>| std::array::from_fn(|k| c.get(k).copied().unwrap_or(0.0));
+            (corner(lo), corner(hi))
+        }
+        _ => boundary_layer::cell_box(&cloud, D),
+    };
+    for (k, layer) in deck.boundary_layers.iter().enumerate() {
+        let (axis, positive) = layer.side.axis_and_end();
+        let spacing = layer.spacing.or(grid_spacing).expect("validated spacing");
+        let width = layer.width.unwrap_or(widest);
+        let face = boundary_layer::Face { axis, positive };
+        let nodes = boundary_layer::add_layer(
+            &mut cloud,
+            D,
+            face,
+            body_box,
+            (width, spacing),
+            thickness,
+        )
+        .map_err(|e| ld.locate(vec![DeckIssue::new(&format!("boundary_layers[{k}]"), e)]))?;
+        if sets.insert(layer.name.clone(), nodes).is_some() {
+            return Err(ld.locate(vec![DeckIssue::new(
+                &format!("boundary_layers[{k}].name"),
+                format!("{:?} is also a named physical group of the mesh; rename one of them", layer.name),
+            )]));
+        }
+    }
+    Ok((cloud, sets))
 }
 
 /// Node set names the deck refers to but neither it nor the mesh defines (validation leaves

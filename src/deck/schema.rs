@@ -39,6 +39,10 @@ pub struct Deck {
     pub blocks: Vec<BlockDeck>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub node_sets: Vec<NodeSetDeck>,
+    /// Fictitious boundary layers outside faces of the body (seed 001 §2.9); each is a node
+    /// set of its name.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boundary_layers: Vec<BoundaryLayerDeck>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub precracks: Vec<Precrack>,
     /// Names of node sets whose bonds never break.
@@ -488,6 +492,58 @@ pub struct BlockDeck {
 pub struct NodeSetDeck {
     pub name: String,
     pub region: Shape,
+}
+
+/// `[[boundary_layers]]`: rows of nodes outside a face of the body's bounding box, bonded to
+/// it like any node, for displacements prescribed as a local boundary condition.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryLayerDeck {
+    /// The layer's node set.
+    pub name: String,
+    /// The face: "-x", "+x", "-y", "+y", "-z" or "+z".
+    pub side: Side,
+    /// Width (m); default: the horizon δ (the largest of the deck's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width: Option<f64>,
+    /// Node spacing (m); default: the lattice spacing or mesh size (needed for meshes read
+    /// from files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spacing: Option<f64>,
+    /// The layer's bonds never break (default): it is a loading device, not material.
+    #[serde(default = "default_true")]
+    pub no_fail: bool,
+}
+
+/// A face of the body's bounding box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Side {
+    #[serde(rename = "-x")]
+    MinusX,
+    #[serde(rename = "+x")]
+    PlusX,
+    #[serde(rename = "-y")]
+    MinusY,
+    #[serde(rename = "+y")]
+    PlusY,
+    #[serde(rename = "-z")]
+    MinusZ,
+    #[serde(rename = "+z")]
+    PlusZ,
+}
+
+impl Side {
+    /// The axis normal to the face and whether the face is at its positive end.
+    pub fn axis_and_end(self) -> (usize, bool) {
+        match self {
+            Side::MinusX => (0, false),
+            Side::PlusX => (0, true),
+            Side::MinusY => (1, false),
+            Side::PlusY => (1, true),
+            Side::MinusZ => (2, false),
+            Side::PlusZ => (2, true),
+        }
+    }
 }
 
 /// Displacement component.

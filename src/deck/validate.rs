@@ -256,6 +256,7 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         names.push(&set.name);
         check_shape(&mut out, &format!("{p}.region"), &set.region);
     }
+    validate_boundary_layers(&mut out, deck, &mut names);
     // A mesh's named physical groups are node sets too; they are known once it is read.
     let from_mesh = matches!(deck.discretization, Discretization::Gmsh { .. });
     let known = |name: &str| from_mesh || name == "all" || names.contains(&name);
@@ -404,6 +405,55 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
 }
 
 /// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.
+/// `[[boundary_layers]]`: their names join the node sets.
+fn validate_boundary_layers<'a>(out: &mut Vec<DeckIssue>, deck: &'a Deck, names: &mut Vec<&'a str>) {
+    let file_mesh = matches!(
+        deck.discretization,
+        Discretization::PointCloud { .. } | Discretization::Gmsh { .. }
+    );
+    let mut sides = Vec::new();
+    for (k, layer) in deck.boundary_layers.iter().enumerate() {
+        let p = format!("boundary_layers[{k}]");
+        if layer.name.trim().is_empty() || layer.name == "all" {
+            out.push(DeckIssue::new(
+                &format!("{p}.name"),
+                format!("layer name {:?} is reserved or empty; `all` always means every node", layer.name),
+            ));
+        } else if names.contains(&layer.name.as_str()) {
+            out.push(DeckIssue::new(
+                &format!("{p}.name"),
+                format!("{:?} already names a node set or another layer", layer.name),
+            ));
+        }
+        names.push(&layer.name);
+        let (axis, _) = layer.side.axis_and_end();
+        if axis >= deck.dimension {
+            out.push(DeckIssue::new(
+                &format!("{p}.side"),
+                "a 2D body has no z faces; expected \"-x\", \"+x\", \"-y\" or \"+y\"",
+            ));
+        }
+        if sides.contains(&layer.side) {
+            out.push(DeckIssue::new(
+                &format!("{p}.side"),
+                "another layer is on this face already; one layer per face",
+            ));
+        }
+        sides.push(layer.side);
+        if let Some(w) = layer.width {
+            positive(out, &format!("{p}.width"), w, "layer width (m)");
+        }
+        match layer.spacing {
+            Some(s) => positive(out, &format!("{p}.spacing"), s, "layer node spacing (m)"),
+            None if file_mesh => out.push(DeckIssue::new(
+                &format!("{p}.spacing"),
+                "a layer next to a mesh read from a file needs `spacing` (m), the distance of its nodes",
+            )),
+            None => {}
+        }
+    }
+}
+
 fn validate_crack_path(out: &mut Vec<DeckIssue>, path: &CrackPathDeck, d: usize) {
     let at = |key: &str| format!("analysis.crack_path.{key}");
     if d != 2 {

@@ -1,5 +1,6 @@
 //! Turning a shape or a file into nodes: positions, volumes and cell sizes.
 
+pub mod boundary_layer;
 pub mod free_mesh;
 pub mod gmsh;
 pub mod lattice;

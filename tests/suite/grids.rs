@@ -34,7 +34,7 @@ fn covered(text: &str) -> (usize, Vec<f64>) {
     let ld = LoadedDeck::from_str(text, Path::new("grid.toml")).unwrap_or_else(|e| panic!("{e}"));
     let model = build_model::<2>(&ld).unwrap_or_else(|e| panic!("{e}"));
     let shape = peridyn::grid::deck_shape(&ld).cloned();
-    let report = peridyn::grid::grid_report(&model.body, &model.bonds, 1e-3, shape.as_ref());
+    let report = peridyn::grid::grid_report(&ld, &model.body, &model.bonds);
     if let Some(s) = report.shape_measure {
         assert!((report.measure - s).abs() < 5e-3 * s, "{report}");
     }
