@@ -5,9 +5,11 @@
 //! - origin: peridyn version and deck file (u32 length + UTF-8 each), hash of the resolved deck
 //!   (u64, FNV-1a 64 of its text);
 //! - sizes (u64 each): dimension, nodes, directed bond entries, history words, previous
-//!   positions;
-//! - payload: the State scalars, the driver state, then the arrays (u, v, current, force,
-//!   body_force as D f64 per node; status as u8; history as f64; previous as D f64 each);
+//!   positions, the quasi-static predictor's displacements (0 or nodes);
+//! - payload: the State scalars, the driver state (time step controller, stage in progress,
+//!   quasi-static solver), then the arrays (u, v, current, force, body_force as D f64 per
+//!   node; status as u8; history as f64; previous as D f64 each; the predictor's
+//!   displacements as D f64 each);
 //! - FNV-1a 64 of every byte before it.
 //!
 //! Written atomically (temp file + rename): the file on disk is always a whole checkpoint.
@@ -15,15 +17,16 @@
 use crate::atomic_file::{with_path, write_atomic_with};
 use crate::math::Vector;
 use crate::observe::Every;
+use crate::solver::quasi_static::QuasiStaticMemory;
 use crate::state::State;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
-const FORMAT: u32 = 1;
+const FORMAT: u32 = 2;
 /// State and driver scalars in the payload.
-const SCALARS: usize = 11;
+const SCALARS: usize = 20;
 
 /// Where a checkpoint comes from: it continues only with the same program and deck.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,14 +50,19 @@ impl Origin {
 }
 
 /// What the next step depends on besides `State`: the time step to try next (the adaptive
-/// controller changes it) and the adaptive controller's counters.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct DriverState {
+/// controller changes it) and the adaptive controller's counters, the stage in progress and
+/// where it started, and the quasi-static solver's memory.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DriverState<const D: usize> {
     pub next_dt: f64,
     /// Committed steps since the adaptive dt last changed.
     pub since_change: u64,
     /// Adaptive steps rejected so far.
     pub rejected: u64,
+    /// The stage in progress (0: the deck's own) and the step and time it started at.
+    pub stage: u64,
+    pub stage_start: (u64, f64),
+    pub quasi_static: Option<QuasiStaticMemory<D>>,
 }
 
 /// When and where a run writes its checkpoint: at the snapshots (`[output] checkpoint`) and
@@ -74,7 +82,11 @@ impl Checkpoints {
             || self.interval.is_some_and(|n| step.is_multiple_of(n))
     }
 
-    pub fn write<const D: usize>(&self, state: &State<D>, driver: &DriverState) -> io::Result<()> {
+    pub fn write<const D: usize>(
+        &self,
+        state: &State<D>,
+        driver: &DriverState<D>,
+    ) -> io::Result<()> {
         write(&self.path, &self.origin, state, driver)
     }
 }
@@ -164,7 +176,7 @@ pub fn write<const D: usize>(
     path: &Path,
     origin: &Origin,
     state: &State<D>,
-    driver: &DriverState,
+    driver: &DriverState<D>,
 ) -> io::Result<()> {
     // Destructured without `..`: a field added to State fails to compile until it is saved.
     let State {
@@ -195,7 +207,17 @@ pub fn write<const D: usize>(
         put_str(&mut w, &origin.version)?;
         put_str(&mut w, &origin.deck_file)?;
         w.write_all(&origin.deck_hash.to_le_bytes())?;
-        for size in [D, u.len(), status.len(), history.len(), previous.len()] {
+        let qs = driver.quasi_static.as_ref();
+        let qs_previous = qs.and_then(|m| m.previous.as_ref());
+        let predictor = qs_previous.map_or(0, |(_, p)| p.len());
+        for size in [
+            D,
+            u.len(),
+            status.len(),
+            history.len(),
+            previous.len(),
+            predictor,
+        ] {
             w.write_all(&(size as u64).to_le_bytes())?;
         }
         // The scalars in the order `restore` reads them: f64 and u64 alike as 8 bytes.
@@ -211,6 +233,15 @@ pub fn write<const D: usize>(
             driver.next_dt.to_bits(),
             driver.since_change,
             driver.rejected,
+            driver.stage,
+            driver.stage_start.0,
+            driver.stage_start.1.to_bits(),
+            qs.is_some() as u64,
+            qs.map_or(0.0, |m| m.increment).to_bits(),
+            qs.map_or(0.0, |m| m.largest_load).to_bits(),
+            qs.map_or(0, |m| m.iterations),
+            qs_previous.is_some() as u64,
+            qs_previous.map_or(0.0, |(t, _)| *t).to_bits(),
         ];
         for x in scalars {
             w.write_all(&x.to_le_bytes())?;
@@ -223,6 +254,9 @@ pub fn write<const D: usize>(
             .iter()
             .try_for_each(|x| w.write_all(&x.to_le_bytes()))?;
         put_vectors(&mut w, previous)?;
+        if let Some((_, displacements)) = qs_previous {
+            put_vectors(&mut w, displacements)?;
+        }
         let hash = w.hash;
         w.inner.write_all(&hash.to_le_bytes())
     })
@@ -289,7 +323,7 @@ pub fn restore<const D: usize>(
     path: &Path,
     origin: &Origin,
     state: &mut State<D>,
-) -> Result<DriverState, CheckpointError> {
+) -> Result<DriverState<D>, CheckpointError> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
@@ -364,8 +398,20 @@ pub fn restore<const D: usize>(
         }
     }
     let n = u.len();
-    let payload =
-        SCALARS * 8 + 5 * n * D * 8 + status.len() + history.len() * 8 + previous.len() * D * 8;
+    let predictor = r.u64()? as usize;
+    if predictor != 0 && predictor != n {
+        return Err(CheckpointError::Size {
+            path: path.to_path_buf(),
+            what: "quasi-static predictor displacements",
+            found: predictor as u64,
+            expected: n as u64,
+        });
+    }
+    let payload = SCALARS * 8
+        + 5 * n * D * 8
+        + status.len()
+        + history.len() * 8
+        + (previous.len() + predictor) * D * 8;
     let expected = (r.pos + payload + 8) as u64;
     if bytes.len() as u64 != expected {
         return Err(CheckpointError::Truncated {
@@ -390,11 +436,17 @@ pub fn restore<const D: usize>(
     *dissipated_damage = r.f64()?;
     *dt = r.f64()?;
     *iterations = r.u64()?;
-    let driver = DriverState {
+    let mut driver = DriverState {
         next_dt: r.f64()?,
         since_change: r.u64()?,
         rejected: r.u64()?,
+        stage: r.u64()?,
+        stage_start: (r.u64()?, r.f64()?),
+        quasi_static: None,
     };
+    let qs = r.u64()? == 1;
+    let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
+    let (has_previous, previous_time) = (r.u64()? == 1, r.f64()?);
     for a in [u, v, current, force, body_force] {
         r.vectors(a)?;
     }
@@ -404,6 +456,16 @@ pub fn restore<const D: usize>(
         *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
     }
     r.vectors(previous)?;
+    if qs {
+        let mut displacements = vec![Vector::<D>::zeros(); predictor];
+        r.vectors(&mut displacements)?;
+        driver.quasi_static = Some(QuasiStaticMemory {
+            increment,
+            largest_load,
+            iterations,
+            previous: has_previous.then_some((previous_time, displacements)),
+        });
+    }
     Ok(driver)
 }
 

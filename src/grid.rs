@@ -74,11 +74,7 @@ pub fn deck_shape(ld: &LoadedDeck) -> Option<&Shape> {
 
 /// Statistics of a body and its bonds (the nearest neighbour of a node is among its bonds),
 /// the deck's boundary layers counted apart.
-pub fn grid_report<const D: usize>(
-    ld: &LoadedDeck,
-    body: &Body<D>,
-    bonds: &Bonds,
-) -> GridReport {
+pub fn grid_report<const D: usize>(ld: &LoadedDeck, body: &Body<D>, bonds: &Bonds) -> GridReport {
     let thickness = ld.deck.thickness.unwrap_or(1.0);
     let mut in_layer = vec![false; body.len()];
     for layer in &ld.deck.boundary_layers {

@@ -334,16 +334,8 @@ fn run_dim<const D: usize>(
 
 /// Why a deck's run cannot be continued from a checkpoint (then it writes none).
 fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
-    if !deck.stages.is_empty() {
-        return Some("a staged run (the stage in progress is not checkpointed)");
-    }
-    if !deck.impactors.is_empty() {
-        return Some("a run with impactors (their position and velocity are not checkpointed)");
-    }
-    solver_settings(deck)
-        .quasi_static
-        .is_some()
-        .then_some("a quasi-static run (its solver's state is not checkpointed)")
+    (!deck.impactors.is_empty())
+        .then_some("a run with impactors (their position and velocity are not checkpointed)")
 }
 
 /// A constitution without its material: what `prepare` needs besides it.
@@ -650,7 +642,11 @@ fn run_model<const D: usize, M: Material<D>>(
             None => Vector::<D>::from_fn(|k, _| if k == 0 { 1.0 } else { 0.0 }),
         };
         let bin = sim.body.min_cell_size();
-        observers.push(Box::new(StageRecord::new(out, direction, bin)));
+        let record = StageRecord::new(out, direction, bin);
+        observers.push(Box::new(match resume {
+            Some(_) => record.resume(step)?,
+            None => record,
+        }));
     }
     let crack = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         Some(tip) => {
@@ -692,13 +688,15 @@ fn run_model<const D: usize, M: Material<D>>(
         observers: &mut observers,
         checkpoints,
         stop_after: control.stop_after_step,
+        stage: resume.as_ref().map_or(0, |d| d.stage),
+        stage_start: resume.as_ref().map_or((0, 0.0), |d| d.stage_start),
         resume,
         final_stage: !staged,
     };
     let result = if staged {
         run_stages(&mut sim, settings, &report, plans, &mut watch)
     } else {
-        run_stage(&mut sim, settings, &report, (0, 0.0), &mut watch)
+        run_stage(&mut sim, settings, &report, &mut watch)
     };
     // A stop stands for a kill: the files stay as the last flush left them.
     if !matches!(result, Err(RunError::Stopped(_))) {
@@ -842,7 +840,8 @@ fn crack_path<const D: usize>(
 
 /// Runs the deck's stages one after the other: each starts from the state the one before
 /// left (the clock runs on), with its own boundary conditions, loads, no-fail sets, solver and
-/// history interval; a quasi-static stage starts at rest.
+/// history interval; a quasi-static stage starts at rest. A run continued from a checkpoint
+/// skips the stages finished before it and continues the one it was in.
 fn run_stages<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     first: SolverSettings,
@@ -851,17 +850,30 @@ fn run_stages<const D: usize, M: Material<D>>(
     watch: &mut Watch<D>,
 ) -> Result<(), RunError> {
     let count = plans.len() + 1;
-    watch.final_stage = count == 1;
-    run_stage(sim, first, &report.stages[0], (0, 0.0), watch)?;
+    let resumed_stage = watch.resume.as_ref().map_or(0, |d| d.stage as usize);
+    if resumed_stage == 0 {
+        watch.final_stage = count == 1;
+        run_stage(sim, first, &report.stages[0], watch)?;
+    }
     for (k, plan) in plans.into_iter().enumerate() {
         let index = k + 1;
+        if index < resumed_stage {
+            continue;
+        }
         let stage = &report.stages[index];
         sim.body.no_fail = plan.no_fail;
-        if plan.settings.quasi_static.is_some() {
-            sim.state.v.iter_mut().for_each(|v| *v = Vector::zeros());
-        }
         sim.dt = stage.dt;
-        sim.set_loading(plan.loading)?;
+        if index == resumed_stage {
+            // The checkpoint holds the state the stage's start made and what followed it.
+            sim.replace_loading(plan.loading);
+        } else {
+            if plan.settings.quasi_static.is_some() {
+                sim.state.v.iter_mut().for_each(|v| *v = Vector::zeros());
+            }
+            sim.set_loading(plan.loading)?;
+            watch.stage_start = (sim.state.step, sim.state.time);
+        }
+        watch.stage = index as u64;
         let start = StageStart {
             index,
             history_interval: match plan.history_interval {
@@ -873,30 +885,31 @@ fn run_stages<const D: usize, M: Material<D>>(
             o.begin_stage(&start);
         }
         watch.final_stage = index + 1 == count;
-        let from = (sim.state.step, sim.state.time);
-        run_stage(sim, plan.settings, stage, from, watch)?;
+        run_stage(sim, plan.settings, stage, watch)?;
     }
     Ok(())
 }
 
-/// One stage with its solver: `stage` gives its steps and duration (a `ModelReport` or
-/// `StageReport`), `start` the step and time it started at (a run continued from a checkpoint
-/// is past them).
+/// One stage with its solver, from `watch.stage_start` (a run continued from a checkpoint is
+/// past it): `stage` gives its steps and duration (a `ModelReport` or `StageReport`). A
+/// continued run's driver state serves this stage only.
 fn run_stage<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     settings: SolverSettings,
     stage: &impl StageLength,
-    (step, time): (u64, f64),
     watch: &mut Watch<D>,
 ) -> Result<(), RunError> {
+    let (step, time) = watch.stage_start;
     match (settings.quasi_static, settings.adaptive) {
-        (Some(qs), _) => quasi_static_loop(sim, qs, stage.steps(), watch),
+        (Some(qs), _) => quasi_static_loop(sim, qs, (time, stage.steps()), watch),
         (None, Some(a)) => {
             let adaptive = a.settings(sim.dt);
             adaptive_loop(sim, adaptive, time + stage.duration(), watch)
         }
         (None, None) => explicit_loop(sim, step + stage.steps(), watch),
-    }
+    }?;
+    watch.resume = None;
+    Ok(())
 }
 
 /// How long a stage runs.
@@ -931,9 +944,12 @@ struct Watch<'a, const D: usize> {
     stop_after: Option<u64>,
     /// Continuing from a checkpoint (whose step the observers saw before the interruption)
     /// with the driver state it kept.
-    resume: Option<DriverState>,
+    resume: Option<DriverState<D>>,
     /// The stage in progress is the run's last: its end is the end of the run.
     final_stage: bool,
+    /// The stage in progress and the step and time it started at.
+    stage: u64,
+    stage_start: (u64, f64),
 }
 
 impl<'a, const D: usize> Watch<'a, D> {
@@ -945,15 +961,18 @@ impl<'a, const D: usize> Watch<'a, D> {
             stop_after: None,
             resume: None,
             final_stage: true,
+            stage: 0,
+            stage_start: (0, 0.0),
         }
     }
 
     /// Offers a committed step; `stage_end`: it ends the stage (and the run, in the last).
+    /// `driver` gives the solver's part of a checkpoint, when one is written.
     fn commit<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
         stage_end: bool,
-        driver: DriverState,
+        driver: impl FnOnce(&Simulation<D, M>) -> DriverState<D>,
     ) -> Result<(), RunError> {
         let last = stage_end && self.final_stage;
         offer(sim, self.observers, last, stage_end)?;
@@ -964,6 +983,11 @@ impl<'a, const D: usize> Watch<'a, D> {
             for o in self.observers.iter_mut() {
                 o.flush()?;
             }
+            let driver = DriverState {
+                stage: self.stage,
+                stage_start: self.stage_start,
+                ..driver(sim)
+            };
             c.write(&sim.state, &driver)?;
             sim.counters.observe += started.elapsed();
         }
@@ -994,7 +1018,7 @@ fn explicit_loop<const D: usize, M: Material<D>>(
         ..DriverState::default()
     };
     if watch.resume.is_none() && sim.state.step == 0 {
-        watch.commit(sim, steps == 0, driver(sim))?;
+        watch.commit(sim, steps == 0, driver)?;
     }
     let given = energy_given(sim);
     for k in sim.state.step + 1..=steps {
@@ -1006,7 +1030,7 @@ fn explicit_loop<const D: usize, M: Material<D>>(
         if k % 10 == 0 || k == steps {
             sim.check_energy(given)?;
         }
-        watch.commit(sim, k == steps, driver(sim))?;
+        watch.commit(sim, k == steps, driver)?;
     }
     Ok(())
 }
@@ -1044,7 +1068,7 @@ fn adaptive_loop<const D: usize, M: Material<D>>(
     // Times closer than this to the end are the end (rounding of accumulated steps); from
     // the initial dt, also when continuing.
     let slack = 1e-9 * sim.dt;
-    let mut controller = match watch.resume {
+    let mut controller = match &watch.resume {
         None => AdaptiveDt::new(settings),
         Some(d) => {
             sim.dt = d.next_dt;
@@ -1055,9 +1079,10 @@ fn adaptive_loop<const D: usize, M: Material<D>>(
         next_dt: sim.dt,
         since_change: c.since_change(),
         rejected: c.rejected,
+        ..DriverState::default()
     };
     if watch.resume.is_none() && sim.state.step == 0 {
-        watch.commit(sim, end_time <= slack, driver(sim, &controller))?;
+        watch.commit(sim, end_time <= slack, |sim| driver(sim, &controller))?;
     }
     let mut k = sim.state.step;
     let given = energy_given(sim);
@@ -1072,7 +1097,7 @@ fn adaptive_loop<const D: usize, M: Material<D>>(
         if k.is_multiple_of(10) || last {
             sim.check_energy(given)?;
         }
-        watch.commit(sim, last, driver(sim, &controller))?;
+        watch.commit(sim, last, |sim| driver(sim, &controller))?;
     }
     Ok(())
 }
@@ -1086,19 +1111,31 @@ pub fn drive_quasi_static<const D: usize, M: Material<D>>(
     load_steps: u64,
     observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
-    quasi_static_loop(sim, settings, load_steps, &mut Watch::observers(observers))
+    let start = sim.state.time;
+    let watch = &mut Watch::observers(observers);
+    quasi_static_loop(sim, settings, (start, load_steps), watch)
 }
 
+/// Load steps from the stage's start time `start`; a continued run skips the load steps whose
+/// targets it has passed and takes the solver's memory from the checkpoint.
 fn quasi_static_loop<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     settings: QuasiStaticSettings,
-    load_steps: u64,
+    (start, load_steps): (f64, u64),
     watch: &mut Watch<D>,
 ) -> Result<(), RunError> {
-    let (increment, start) = (sim.dt, sim.state.time);
+    let increment = sim.dt;
     let mut solver = QuasiStatic::new(sim, settings, increment);
-    if sim.state.step == 0 {
-        watch.commit(sim, load_steps == 0, DriverState::default())?;
+    let driver = |solver: &QuasiStatic<D>| DriverState {
+        quasi_static: Some(solver.memory()),
+        ..DriverState::default()
+    };
+    match watch.resume.as_mut().and_then(|d| d.quasi_static.take()) {
+        Some(memory) => solver.resume(memory),
+        None if watch.resume.is_none() && sim.state.step == 0 => {
+            watch.commit(sim, load_steps == 0, |_| driver(&solver))?;
+        }
+        None => {}
     }
     for k in 1..=load_steps {
         // The target from k, not by summing increments: no drift over many steps.
@@ -1107,7 +1144,7 @@ fn quasi_static_loop<const D: usize, M: Material<D>>(
             solver.advance(sim, target)?;
             sim.check_finite()?;
             let stage_end = k == load_steps && sim.state.time >= target;
-            watch.commit(sim, stage_end, DriverState::default())?;
+            watch.commit(sim, stage_end, |_| driver(&solver))?;
         }
     }
     Ok(())

@@ -468,19 +468,16 @@ fn with_boundary_layers<const D: usize>(
         let spacing = layer.spacing.or(grid_spacing).expect("validated spacing");
         let width = layer.width.unwrap_or(widest);
         let face = boundary_layer::Face { axis, positive };
-        let nodes = boundary_layer::add_layer(
-            &mut cloud,
-            D,
-            face,
-            body_box,
-            (width, spacing),
-            thickness,
-        )
-        .map_err(|e| ld.locate(vec![DeckIssue::new(&format!("boundary_layers[{k}]"), e)]))?;
+        let nodes =
+            boundary_layer::add_layer(&mut cloud, D, face, body_box, (width, spacing), thickness)
+                .map_err(|e| ld.locate(vec![DeckIssue::new(&format!("boundary_layers[{k}]"), e)]))?;
         if sets.insert(layer.name.clone(), nodes).is_some() {
             return Err(ld.locate(vec![DeckIssue::new(
                 &format!("boundary_layers[{k}].name"),
-                format!("{:?} is also a named physical group of the mesh; rename one of them", layer.name),
+                format!(
+                    "{:?} is also a named physical group of the mesh; rename one of them",
+                    layer.name
+                ),
             )]));
         }
     }

@@ -406,7 +406,11 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
 
 /// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.
 /// `[[boundary_layers]]`: their names join the node sets.
-fn validate_boundary_layers<'a>(out: &mut Vec<DeckIssue>, deck: &'a Deck, names: &mut Vec<&'a str>) {
+fn validate_boundary_layers<'a>(
+    out: &mut Vec<DeckIssue>,
+    deck: &'a Deck,
+    names: &mut Vec<&'a str>,
+) {
     let file_mesh = matches!(
         deck.discretization,
         Discretization::PointCloud { .. } | Discretization::Gmsh { .. }
@@ -417,7 +421,10 @@ fn validate_boundary_layers<'a>(out: &mut Vec<DeckIssue>, deck: &'a Deck, names:
         if layer.name.trim().is_empty() || layer.name == "all" {
             out.push(DeckIssue::new(
                 &format!("{p}.name"),
-                format!("layer name {:?} is reserved or empty; `all` always means every node", layer.name),
+                format!(
+                    "layer name {:?} is reserved or empty; `all` always means every node",
+                    layer.name
+                ),
             ));
         } else if names.contains(&layer.name.as_str()) {
             out.push(DeckIssue::new(

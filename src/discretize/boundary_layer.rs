@@ -28,7 +28,7 @@ pub fn add_layer(
         return Err(format!("axis {} does not exist in {dim}D", face.axis));
     }
     let (lo, hi) = body_box;
-    if lo.iter().zip(&hi).take(dim).any(|(l, h)| !(h > l)) {
+    if !(0..dim).all(|k| hi[k] > lo[k]) {
         return Err("a boundary layer needs a body to lie against".into());
     }
     let rows = (width / spacing - 1e-9).ceil().max(1.0) as usize;
@@ -99,12 +99,15 @@ mod tests {
         let dx = 0.1;
         let mut cloud = lattice(&rectangle([0.0, 0.0], [1.0, 2.0]), 2, dx, 0.5).unwrap();
         let body = cloud.len();
-        let top = Face { axis: 1, positive: true };
+        let top = Face {
+            axis: 1,
+            positive: true,
+        };
         let body_box = cell_box(&cloud, 2);
         let layer = add_layer(&mut cloud, 2, top, body_box, (0.3, dx), 0.5).unwrap();
         assert_eq!(layer.len(), 30, "3 rows of 10");
         assert_eq!(layer[0] as usize, body);
-        let mut whole = lattice(&rectangle([0.0, 0.0], [1.0, 2.3]), 2, dx, 0.5).unwrap();
+        let whole = lattice(&rectangle([0.0, 0.0], [1.0, 2.3]), 2, dx, 0.5).unwrap();
         let key = |p: &[f64; 3]| ((p[1] * 1e6).round() as i64, (p[0] * 1e6).round() as i64);
         let mut mine: Vec<_> = cloud.positions.iter().map(key).collect();
         let mut theirs: Vec<_> = whole.positions.iter().map(key).collect();
@@ -114,7 +117,9 @@ mod tests {
         whole.volumes.iter().chain(&cloud.volumes).for_each(|&v| {
             assert!((v - dx * dx * 0.5).abs() < 1e-15);
         });
-        assert!(cloud.positions[body..].iter().all(|p| p[1] > 2.0 && p[1] < 2.3));
+        assert!(cloud.positions[body..]
+            .iter()
+            .all(|p| p[1] > 2.0 && p[1] < 2.3));
     }
 
     /// The layer lies outside the face it is on, one horizon wide, and tiles the face's width.
@@ -139,7 +144,11 @@ mod tests {
             assert!((volume - face_area * 0.75).abs() < 1e-12);
             let limit = if positive { 1.0 } else { 0.0 };
             for p in &cloud.positions[body..] {
-                let beyond = if positive { p[axis] - limit } else { limit - p[axis] };
+                let beyond = if positive {
+                    p[axis] - limit
+                } else {
+                    limit - p[axis]
+                };
                 assert!(beyond > 0.0 && beyond < 0.75, "axis {axis}: {p:?}");
             }
         }
@@ -154,15 +163,26 @@ mod tests {
             cell_sizes: vec![0.1, 0.04],
             blocks: vec![0, 0],
         };
-        let bottom = Face { axis: 1, positive: false };
+        let bottom = Face {
+            axis: 1,
+            positive: false,
+        };
         let body_box = cell_box(&cloud, 2);
         let layer = add_layer(&mut cloud, 2, bottom, body_box, (0.1, 0.1), 1.0).unwrap();
         // The box spans x from 0 to 1.0: 10 cells of 0.1.
         assert_eq!(layer.len(), 10);
-        let xs: Vec<f64> = layer.iter().map(|&i| cloud.positions[i as usize][0]).collect();
+        let xs: Vec<f64> = layer
+            .iter()
+            .map(|&i| cloud.positions[i as usize][0])
+            .collect();
         assert!((xs[0] - 0.05).abs() < 1e-12 && (xs[9] - 0.95).abs() < 1e-12);
-        assert!(layer.iter().all(|&i| (cloud.positions[i as usize][1] + 0.05).abs() < 1e-12));
-        let z = Face { axis: 2, positive: true };
+        assert!(layer
+            .iter()
+            .all(|&i| (cloud.positions[i as usize][1] + 0.05).abs() < 1e-12));
+        let z = Face {
+            axis: 2,
+            positive: true,
+        };
         assert!(add_layer(&mut cloud, 2, z, body_box, (0.1, 0.1), 1.0).is_err());
     }
 }

@@ -129,6 +129,20 @@ impl<const D: usize> Observer<D> for ResumedCsv<D> {
     }
 }
 
+/// The rows of CSV `text` (read from `path`) after its header, as numbers: what a table
+/// writer held, to hold again (its numbers print back to the same text).
+pub(crate) fn parse_rows(text: &str, path: &Path) -> io::Result<Vec<Vec<f64>>> {
+    text.lines()
+        .skip(1)
+        .map(|line| {
+            line.split(',')
+                .map(|c| c.parse::<f64>())
+                .collect::<Result<Vec<f64>, _>>()
+                .map_err(|_| cannot_continue(path, format!("expected numbers, found {line:?}")))
+        })
+        .collect()
+}
+
 /// A file of the interrupted run that cannot be continued, and why.
 pub(crate) fn cannot_continue(path: &Path, what: String) -> io::Error {
     io::Error::new(

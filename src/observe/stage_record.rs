@@ -5,6 +5,7 @@
 
 use super::csv::CsvHistory;
 use super::observer::{Observer, StageStart, StepView};
+use super::resume::{parse_rows, read_if_present, rows_up_to};
 use crate::math::Vector;
 use std::path::Path;
 
@@ -44,6 +45,31 @@ impl<const D: usize> StageRecord<D> {
             direction: direction.normalize(),
             bin,
         }
+    }
+}
+
+impl<const D: usize> StageRecord<D> {
+    /// Continues the files of a run interrupted after `step`: the rows of the stages that had
+    /// ended by then.
+    pub fn resume(mut self, step: u64) -> std::io::Result<Self> {
+        let path = self.stages.path().to_path_buf();
+        let kept = rows_up_to(&read_if_present(&path)?, step, &path)?;
+        let ended = parse_rows(&kept, &path)?;
+        let count = ended.len() as f64;
+        for row in ended {
+            self.stages.push(row)?;
+        }
+        let path = self.profile.path().to_path_buf();
+        let text = read_if_present(&path)?;
+        if !text.is_empty() {
+            for row in parse_rows(&text, &path)? {
+                // Stages are numbered from 1 in the files.
+                if row.first().is_some_and(|&stage| stage <= count) {
+                    self.profile.push(row)?;
+                }
+            }
+        }
+        Ok(self)
     }
 }
 

@@ -125,7 +125,35 @@ pub struct QuasiStatic<const D: usize> {
     pub iterations: u64,
 }
 
+/// What a quasi-static solver carries from one committed load step to the next (besides the
+/// state): a checkpoint saves it, so a continued run relaxes from the same start.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuasiStaticMemory<const D: usize> {
+    pub increment: f64,
+    pub largest_load: f64,
+    pub previous: Option<(f64, Vec<Vector<D>>)>,
+    pub iterations: u64,
+}
+
 impl<const D: usize> QuasiStatic<D> {
+    /// The memory a checkpoint keeps.
+    pub fn memory(&self) -> QuasiStaticMemory<D> {
+        QuasiStaticMemory {
+            increment: self.increment,
+            largest_load: self.largest_load,
+            previous: self.previous.clone(),
+            iterations: self.iterations,
+        }
+    }
+
+    /// Continues from a checkpoint's memory.
+    pub fn resume(&mut self, memory: QuasiStaticMemory<D>) {
+        self.increment = memory.increment;
+        self.largest_load = memory.largest_load;
+        self.previous = memory.previous;
+        self.iterations = memory.iterations;
+    }
+
     /// Sets up the masses for `sim`; `increment` is the nominal load step (pseudo-time).
     pub fn new<M: Material<D>>(
         sim: &Simulation<D, M>,

@@ -109,13 +109,19 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         Ok(sim)
     }
 
+    /// Takes `loading` without applying it: for a state that already has it applied (one
+    /// restored from a checkpoint).
+    pub fn replace_loading(&mut self, loading: Loading<D>) {
+        (self.constrained, self.constrained_mask) = constraints(&loading, self.body.len());
+        self.loading = loading;
+    }
+
     /// Switches to another set of boundary conditions and loads (a new stage): the
     /// constrained components are those of `loading`, its displacements and velocities are
     /// applied at the current time, and the forces are evaluated again (bonds past their limit
     /// break here, e.g. when a stage lifts a no-fail set). Returns the bond halves broken.
     pub fn set_loading(&mut self, loading: Loading<D>) -> Result<u64, StepError> {
-        (self.constrained, self.constrained_mask) = constraints(&loading, self.body.len());
-        self.loading = loading;
+        self.replace_loading(loading);
         let t = self.state.time;
         self.loading
             .apply_displacements(&self.body, &mut self.state, t);

@@ -107,8 +107,12 @@ enum Grips {
 /// flags as grips drawn by hand outside an extended shape.
 #[test]
 fn layers_are_the_hand_drawn_grips() {
-    let by_deck = build_model::<2>(&plate(1e-6, 0.04, Grips::Layers)).unwrap().body;
-    let by_hand = build_model::<2>(&plate(1e-6, 0.04, Grips::HandDrawn)).unwrap().body;
+    let by_deck = build_model::<2>(&plate(1e-6, 0.04, Grips::Layers))
+        .unwrap()
+        .body;
+    let by_hand = build_model::<2>(&plate(1e-6, 0.04, Grips::HandDrawn))
+        .unwrap()
+        .body;
     assert_eq!(by_deck.len(), by_hand.len());
     let key = |b: &peridyn::body::Body<2>, i: usize| {
         let p = b.positions[i];
@@ -126,7 +130,12 @@ fn layers_are_the_hand_drawn_grips() {
                 } else {
                     0
                 };
-                (key(b, i), (b.volumes[i] * 1e15).round() as i64, set, b.no_fail[i])
+                (
+                    key(b, i),
+                    (b.volumes[i] * 1e15).round() as i64,
+                    set,
+                    b.no_fail[i],
+                )
             })
             .collect();
         rows.sort_unstable();
@@ -156,7 +165,8 @@ fn a_free_mesh_gets_layers_too() {
         .unwrap()
         .replace("type = \"lattice\"", "type = \"free_mesh\"")
         .replace("spacing = 0.0005", "size = 0.0005");
-    let ld = LoadedDeck::from_str(&text, Path::new("mesh.toml")).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let ld = LoadedDeck::from_str(&text, Path::new("mesh.toml"))
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
     let body = build_model::<2>(&ld).unwrap().body;
     let top = body.node_set("top").unwrap();
     assert_eq!(top.len(), 3 * 20);
@@ -229,7 +239,10 @@ fn bad_layers_are_refused_with_their_keys() {
             .to_string()
     };
     let z = with("side = \"+y\"", "side = \"+z\"");
-    assert!(z.contains("boundary_layers[0].side") && z.contains("no z faces"), "{z}");
+    assert!(
+        z.contains("boundary_layers[0].side") && z.contains("no z faces"),
+        "{z}"
+    );
     let twice = with("name = \"bottom\"", "name = \"top\"");
     assert!(twice.contains("boundary_layers[1].name"), "{twice}");
     let face = with("side = \"-y\"", "side = \"+y\"");

@@ -289,26 +289,77 @@ fn a_missing_damaged_or_foreign_checkpoint_is_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn quasi_static_restart_is_refused_and_writes_no_checkpoint() {
-    let dir = scratch("quasi-static");
-    let text = deck_text(3.09e9, "", "").replace(
-        "type = \"explicit\"\n",
-        "type = \"quasi_static\"\nload_steps = 2\n",
-    );
-    let text = text
+/// The plate pulled quasi-statically by its grips (±`pull` m over the run) on a 0.2 mm grid.
+fn quasi_static_text(pull: f64, solver: &str, output: &str) -> String {
+    deck_text(3.09e9, "", output)
+        .replace("spacing = 0.1e-3", "spacing = 0.2e-3")
+        .replace(
+            "type = \"explicit\"\n",
+            &format!("type = \"quasi_static\"\n{solver}\n"),
+        )
         .replace("kind = \"velocity\"", "kind = \"displacement\"")
-        .replace("value = 20.0", "value = 1e-6")
-        .replace("value = -20.0", "value = -1e-6");
+        .replace(
+            "value = 20.0",
+            &format!("value = {pull:e}\ntime = {{ type = \"ramp\", duration = 1.0 }}"),
+        )
+        .replace(
+            "value = -20.0",
+            &format!(
+                "value = {:e}\ntime = {{ type = \"ramp\", duration = 1.0 }}",
+                -pull
+            ),
+        )
+}
+
+/// A quasi-static run through the crack's growth, its load steps halved where too many bonds
+/// break, stopped after a halved step and continued: the solver's memory (the increment in
+/// use, the predictor's last displacements, the largest load) crosses the restart.
+#[test]
+fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
+    let dir = scratch("quasi-static");
+    let solver = "load_steps = 10\ntolerance = 1e-4\nmax_broken_bonds = 40\nmax_splits = 3";
+    let text = quasi_static_text(2e-5, solver, "checkpoint_interval = 2");
     let ld = load(&dir, "qs.toml", &text);
-    let out = dir.join("run");
-    run(&ld, &options(&out, None)).unwrap();
-    assert!(!out.join("checkpoint.bin").exists());
-    let msg = restart_error(&ld, &out);
-    assert!(
-        msg.contains("quasi-static") && msg.contains("not supported yet"),
-        "{msg}"
-    );
+    assert_restart_matches(&ld, &dir, 9);
+    // Steps were halved before the stop (the increment in use crossed the restart).
+    let history = std::fs::read_to_string(dir.join("whole/history.csv")).unwrap();
+    let header = history.lines().next().unwrap();
+    let dt = header.split(',').position(|c| c == "dt").unwrap();
+    let halved = history.lines().skip(2).take(8).any(|l| {
+        let value: f64 = l.split(',').nth(dt).unwrap().parse().unwrap();
+        value < 0.09
+    });
+    assert!(halved, "no load step was halved before step 9:\n{history}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A staged run (a quasi-static preload, then the grips driven apart in explicit dynamics),
+/// stopped inside the quasi-static stage, at its end and inside the dynamic stage: each
+/// continuation leaves the files of the run that never stopped, stages.csv included.
+#[test]
+fn staged_run_continued_after_a_stop_is_byte_identical() {
+    let dir = scratch("staged");
+    let stages = r#"
+[[stages]]
+name = "release"
+solver = { type = "explicit", steps = 300 }
+boundary_conditions = [
+  { set = "top", kind = "velocity", component = "y", value = 20.0 },
+  { set = "bottom", kind = "velocity", component = "y", value = -20.0 },
+]
+"#;
+    let text = quasi_static_text(
+        4e-6,
+        "load_steps = 4\ntolerance = 1e-6",
+        "checkpoint_interval = 2",
+    )
+    .replacen("\n[output]", &format!("{stages}\n[output]"), 1);
+    let ld = load(&dir, "staged.toml", &text);
+    for stop in [3, 4, 150] {
+        assert_restart_matches(&ld, &dir.join(format!("stop-{stop}")), stop);
+    }
+    let stages_csv = std::fs::read_to_string(dir.join("stop-4/parts/stages.csv")).unwrap();
+    assert_eq!(stages_csv.lines().count(), 3, "{stages_csv}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
