@@ -15,7 +15,7 @@ pub const OTHER_BROKEN: u8 = 2;
 pub const BROKEN: u8 = OWN_BROKEN | OTHER_BROKEN;
 
 /// The evolving state of a run.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct State<const D: usize> {
     pub time: f64,
     pub step: u64,
@@ -52,6 +52,72 @@ pub struct State<const D: usize> {
     /// Force evaluations of the last step: 1 for an explicit step, the relaxation
     /// iterations of a quasi-static load step.
     pub iterations: u64,
+}
+
+/// `clone_from` copies into the arrays already there: the adaptive time step saves the
+/// state before every step, and a derived `Clone` would allocate (and the kernel zero) fresh
+/// arrays each time, tens of MB per step.
+impl<const D: usize> Clone for State<D> {
+    fn clone(&self) -> Self {
+        let mut copy = State {
+            time: 0.0,
+            step: 0,
+            u: Vec::new(),
+            v: Vec::new(),
+            current: Vec::new(),
+            force: Vec::new(),
+            body_force: Vec::new(),
+            status: Vec::new(),
+            history: Vec::new(),
+            previous: Vec::new(),
+            broken: 0,
+            external_work: 0.0,
+            dissipated_viscous: 0.0,
+            dissipated_damage: 0.0,
+            dt: 0.0,
+            iterations: 0,
+        };
+        copy.clone_from(self);
+        copy
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        // Destructured without `..`: a new field fails to compile until it is copied.
+        let State {
+            time,
+            step,
+            u,
+            v,
+            current,
+            force,
+            body_force,
+            status,
+            history,
+            previous,
+            broken,
+            external_work,
+            dissipated_viscous,
+            dissipated_damage,
+            dt,
+            iterations,
+        } = self;
+        *time = source.time;
+        *step = source.step;
+        u.clone_from(&source.u);
+        v.clone_from(&source.v);
+        current.clone_from(&source.current);
+        force.clone_from(&source.force);
+        body_force.clone_from(&source.body_force);
+        status.clone_from(&source.status);
+        history.clone_from(&source.history);
+        previous.clone_from(&source.previous);
+        *broken = source.broken;
+        *external_work = source.external_work;
+        *dissipated_viscous = source.dissipated_viscous;
+        *dissipated_damage = source.dissipated_damage;
+        *dt = source.dt;
+        *iterations = source.iterations;
+    }
 }
 
 impl<const D: usize> State<D> {
@@ -92,5 +158,52 @@ impl<const D: usize> State<D> {
             .zip(densities)
             .map(|((v, &vol), &rho)| 0.5 * rho * vol * v.norm_squared())
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Saving the state again reuses the saved copy's arrays, and copies every value.
+    #[test]
+    fn clone_from_copies_into_the_arrays_already_there() {
+        let mut state = State::<2> {
+            time: 1.5,
+            step: 7,
+            u: vec![Vector::<2>::new(1.0, 2.0); 1000],
+            v: vec![Vector::<2>::new(3.0, 4.0); 1000],
+            current: vec![Vector::zeros(); 1000],
+            force: vec![Vector::zeros(); 1000],
+            body_force: vec![Vector::zeros(); 1000],
+            status: vec![INTACT; 30_000],
+            history: vec![0.5; 30_000],
+            previous: Vec::new(),
+            broken: 3,
+            external_work: 2.0,
+            dissipated_viscous: 0.25,
+            dissipated_damage: 0.125,
+            dt: 1e-7,
+            iterations: 1,
+        };
+        let mut saved = state.clone();
+        let (u, status, history) = (
+            saved.u.as_ptr(),
+            saved.status.as_ptr(),
+            saved.history.as_ptr(),
+        );
+        state.u[999] = Vector::<2>::new(-1.0, -2.0);
+        state.status[5] = BROKEN;
+        state.history[7] = 9.0;
+        state.time = 2.0;
+        state.dissipated_damage = 1.0;
+        saved.clone_from(&state);
+        assert_eq!(saved.u.as_ptr(), u);
+        assert_eq!(saved.status.as_ptr(), status);
+        assert_eq!(saved.history.as_ptr(), history);
+        assert_eq!(saved.u, state.u);
+        assert_eq!(saved.status, state.status);
+        assert_eq!(saved.history, state.history);
+        assert_eq!((saved.time, saved.dissipated_damage), (2.0, 1.0));
     }
 }
