@@ -34,8 +34,10 @@ pub struct BenchResult {
 
 /// The cases, in table order: model, damage law, dimension (and "-nopv": no partial-volume
 /// band, the ~122 bonds per node of δ/Δx = 3 that other codes quote; "-dh": the right half
-/// with a 2δ horizon; "-mixed": PMB left, LPS right).
-pub const CASES: [&str; 17] = [
+/// with a 2δ horizon; "-mixed": PMB left, LPS right; "-contact": node–node contact with the
+/// deck's defaults, "-idle" with no node near another, else a crack across the block whose
+/// faces are pressed together, `contact_interface`).
+pub const CASES: [&str; 19] = [
     "pmb-2d",
     "lps-2d",
     "correspondence-2d",
@@ -53,6 +55,8 @@ pub const CASES: [&str; 17] = [
     "correspondence-energy-3d",
     "pmb-3d-nopv",
     "mixed-3d",
+    "pmb-contact-idle-2d",
+    "pmb-contact-2d",
 ];
 
 const E: f64 = 70e9;
@@ -82,11 +86,23 @@ fn block<const D: usize>(target_bonds: usize, rule: PartialVolume, dual: bool) -
 
 fn measure<const D: usize, M: Material<D>>(
     case: &str,
-    (body, bonds, rule): (Body<D>, Bonds, PartialVolume),
+    model: (Body<D>, Bonds, PartialVolume),
     material: M,
     damage: Damage,
     steps: u64,
     threads: usize,
+) -> BenchResult {
+    measure_with(case, model, (material, damage), steps, threads, |_| {})
+}
+
+/// `measure`, with `setup` run on the simulation before the warm-up step.
+fn measure_with<const D: usize, M: Material<D>>(
+    case: &str,
+    (body, bonds, rule): (Body<D>, Bonds, PartialVolume),
+    (material, damage): (M, Damage),
+    steps: u64,
+    threads: usize,
+    setup: impl FnOnce(&mut Simulation<D, M>) + Send,
 ) -> BenchResult {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -109,6 +125,7 @@ fn measure<const D: usize, M: Material<D>>(
         for (i, v) in sim.state.v.iter_mut().enumerate() {
             v[0] = 1e-3 * ((i % 7) as f64 - 3.0);
         }
+        setup(&mut sim);
         sim.step().expect("warm-up step");
         // Best of three repetitions: the machine's noise only ever slows a run down.
         let secs = (0..3)
@@ -251,6 +268,11 @@ fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -
             let mixed = mixed.into_central().expect("PMB and LPS blocks");
             measure(name, model, mixed, laws.into(), steps, threads)
         }
+        _ if name.contains("-contact") => {
+            let active = !name.contains("idle");
+            let setup = |sim: &mut Simulation<D, Pmb>| contact_interface(sim, active);
+            measure_with(name, model, (pmb::<D>(), stretch()), steps, threads, setup)
+        }
         _ => {
             let horizons = model.0.horizons.clone();
             let m = pmb::<D>().with_horizons(&horizons);
@@ -264,6 +286,45 @@ fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -
             measure(name, model, m, d, steps, threads)
         }
     }
+}
+
+/// Turns on node–node contact with the deck's defaults (r_c = 0.9Δx, c_s = 15c, skin 0.3Δx).
+/// `pressed`: the block is cut across its middle (every bond crossing y = mid broken) and its
+/// upper half moved down by 0.2Δx, a rigid shift: the rows facing each other across the cut
+/// are 0.8Δx apart, within r_c, while no bond is strained (a closed crack's faces).
+fn contact_interface<const D: usize>(sim: &mut Simulation<D, Pmb>, pressed: bool) {
+    use crate::deck::contact::{micromodulus, Scales, RADIUS_FACTOR, SKIN_FACTOR};
+    use crate::solver::contact::{ContactSettings, NodeContact};
+    let scales = Scales {
+        spacing: DX,
+        horizon: 3.0 * DX,
+        volume: sim.body.total_volume() / sim.body.len() as f64,
+        thickness: sim.body.thickness,
+        elasticity: elasticity::<D>(),
+    };
+    sim.contact = Some(NodeContact::new(ContactSettings {
+        radius: RADIUS_FACTOR * DX,
+        stiffness: crate::deck::contact::STIFFNESS_FACTOR * micromodulus(D, &scales),
+        horizon: 3.0 * DX,
+        skin: SKIN_FACTOR * DX,
+    }));
+    if pressed {
+        let top = sim.body.positions.iter().map(|p| p[1]).fold(0.0, f64::max);
+        let mid = 0.5 * (top + 0.5 * DX);
+        let above = |i: usize| sim.body.positions[i][1] > mid;
+        for i in 0..sim.body.len() {
+            for b in sim.bonds.family(i) {
+                if above(i) != above(sim.bonds.neighbors[b] as usize) {
+                    sim.state.status[b] = crate::state::BROKEN;
+                }
+            }
+        }
+        for i in (0..sim.body.len()).filter(|&i| above(i)) {
+            sim.state.u[i][1] -= 0.2 * DX;
+            sim.state.current[i] = sim.body.positions[i] + sim.state.u[i];
+        }
+    }
+    sim.refresh_forces().expect("contact forces");
 }
 
 /// Runs the chosen cases (all when `only` is empty) and prints a table; returns the results.
@@ -607,6 +668,25 @@ mod tests {
         assert!(listed.is_empty());
         let err = run_benchmarks(1000, 1, &[1], &["nope".to_string()]).unwrap_err();
         assert!(err.contains("pmb-3d") && err.contains("ncg-2d"), "{err}");
+    }
+
+    /// The pressed cut has its faces in contact and no bond strained; idle, nothing touches.
+    #[test]
+    fn the_contact_cases_press_a_cut_or_touch_nothing() {
+        for pressed in [false, true] {
+            let (body, bonds) = block::<2>(30_000, PartialVolume::Hhb, false);
+            let loading = Loading::default();
+            let rule = PartialVolume::Hhb;
+            let mut sim =
+                Simulation::new(body, bonds, pmb::<2>(), stretch(), rule, loading, None, 0.8)
+                    .unwrap();
+            contact_interface(&mut sim, pressed);
+            let energy = sim.contact.as_ref().unwrap().energy;
+            assert_eq!(energy > 0.0, pressed, "contact energy {energy}");
+            assert!(sim.strain_energy() < 1e-12 * energy.max(1e-30) + 1e-30);
+        }
+        let r = case::<2>("pmb-contact-2d", 30_000, 2, 1);
+        assert!(r.node_steps_per_second > 0.0);
     }
 
     #[test]

@@ -158,7 +158,14 @@ pub fn max_force<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> f64 
 
 /// A 2D deck of one PMB material built into its simulation and report, not run.
 pub fn pmb_deck_simulation(ld: &LoadedDeck) -> Result<(Simulation<2, Pmb>, ModelReport), RunError> {
-    let model = build_model::<2>(ld)?;
+    pmb_deck_simulation_in::<2>(ld)
+}
+
+/// `pmb_deck_simulation` in dimension D.
+pub fn pmb_deck_simulation_in<const D: usize>(
+    ld: &LoadedDeck,
+) -> Result<(Simulation<D, Pmb>, ModelReport), RunError> {
+    let model = build_model::<D>(ld)?;
     let c = build_constitution(ld, &model)?;
     let (material, rest) = c.split();
     let MaterialChoice::Pmb(pmb) = material else {
