@@ -682,6 +682,9 @@ fn run_model<const D: usize, M: Material<D>>(
         interval: deck.output.checkpoint_interval,
     });
 
+    let latest_checkpoint = checkpoints
+        .as_ref()
+        .map(|c| (c.path.clone(), c.origin.clone()));
     let started = Instant::now();
     let settings = solver_settings(deck);
     let mut watch = Watch {
@@ -702,6 +705,15 @@ fn run_model<const D: usize, M: Material<D>>(
     if !matches!(result, Err(RunError::Stopped(_))) {
         for o in observers.iter_mut() {
             o.finish()?;
+        }
+    }
+    if let (Err(RunError::Step(_)), Some(latest)) = (&result, &latest_checkpoint) {
+        if let Some(file) = write_last_good(&mut sim, latest, out) {
+            eprintln!(
+                "peridyn: the last good state (the latest checkpoint, step {}) is in {}",
+                sim.state.step,
+                file.display()
+            );
         }
     }
     result?;
@@ -733,6 +745,24 @@ fn run_model<const D: usize, M: Material<D>>(
     }
     crate::atomic_file::write_atomic(&out.join("summary.txt"), format!("{summary}\n").as_bytes())?;
     Ok(summary)
+}
+
+/// After a diagnosed failure (NaN, energy blow-up, a relaxation that does not converge):
+/// writes the latest checkpoint's state, the last good one, as `fields/last_good_step_N.vtu`
+/// (not in `fields.pvd`). `None` when there is no checkpoint to read or the file cannot be
+/// written: the run's own error is what matters then.
+fn write_last_good<const D: usize, M: Material<D>>(
+    sim: &mut Simulation<D, M>,
+    (path, origin): &(std::path::PathBuf, Origin),
+    out: &std::path::Path,
+) -> Option<std::path::PathBuf> {
+    crate::checkpoint::restore(path, origin, &mut sim.state).ok()?;
+    let fields = out.join("fields");
+    std::fs::create_dir_all(&fields).ok()?;
+    let file = fields.join(format!("last_good_step_{:08}.vtu", sim.state.step));
+    let view = StepView::new(&*sim as &dyn Fields<D>, true);
+    crate::observe::snapshots::write_fields(&file, &view).ok()?;
+    Some(file)
 }
 
 /// Each opening's name and the nodes nearest its two points (the lowest index on a tie).

@@ -7,7 +7,7 @@ use super::vtu::{write_vtu, Field, FieldData};
 use crate::deck::schema::OutputDeck;
 use crate::math::to3;
 use std::io;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pub struct Snapshots {
     dir: PathBuf,
@@ -66,48 +66,8 @@ impl<const D: usize> Observer<D> for Snapshots {
     }
 
     fn observe(&mut self, view: &StepView<D>) -> io::Result<()> {
-        let step = view.state.step;
-        let points: Vec<[f64; 3]> = view.body.positions.iter().map(to3).collect();
-        let flat = |v: &[crate::math::Vector<D>]| {
-            v.iter()
-                .flat_map(|x| x.iter().cloned().collect::<Vec<_>>())
-                .collect::<Vec<f64>>()
-        };
-        let (u, v) = (flat(&view.state.u), flat(&view.state.v));
-        let blocks: Vec<i32> = view.body.blocks.iter().map(|&b| b as i32).collect();
-        let name = format!("step_{step:08}.vtu");
-        write_vtu(
-            &self.dir.join("fields").join(&name),
-            &points,
-            &[
-                Field {
-                    name: "displacement",
-                    data: FieldData::Vector {
-                        data: &u,
-                        components: D,
-                    },
-                },
-                Field {
-                    name: "velocity",
-                    data: FieldData::Vector {
-                        data: &v,
-                        components: D,
-                    },
-                },
-                Field {
-                    name: "damage",
-                    data: FieldData::Scalar(view.damage()),
-                },
-                Field {
-                    name: "strain_energy_density",
-                    data: FieldData::Scalar(view.energy_density()),
-                },
-                Field {
-                    name: "block",
-                    data: FieldData::Int(&blocks),
-                },
-            ],
-        )?;
+        let name = format!("step_{:08}.vtu", view.state.step);
+        write_fields(&self.dir.join("fields").join(&name), view)?;
         self.series
             .add(view.state.time, &format!("fields/{name}"))?;
         if let Some(maps) = &mut self.maps {
@@ -115,4 +75,49 @@ impl<const D: usize> Observer<D> for Snapshots {
         }
         Ok(())
     }
+}
+
+/// Writes the fields of `view` (displacement, velocity, damage, strain energy density, block)
+/// as one VTU file.
+pub fn write_fields<const D: usize>(path: &Path, view: &StepView<D>) -> io::Result<()> {
+    let points: Vec<[f64; 3]> = view.body.positions.iter().map(to3).collect();
+    let flat = |v: &[crate::math::Vector<D>]| {
+        v.iter()
+            .flat_map(|x| x.iter().cloned().collect::<Vec<_>>())
+            .collect::<Vec<f64>>()
+    };
+    let (u, v) = (flat(&view.state.u), flat(&view.state.v));
+    let blocks: Vec<i32> = view.body.blocks.iter().map(|&b| b as i32).collect();
+    write_vtu(
+        path,
+        &points,
+        &[
+            Field {
+                name: "displacement",
+                data: FieldData::Vector {
+                    data: &u,
+                    components: D,
+                },
+            },
+            Field {
+                name: "velocity",
+                data: FieldData::Vector {
+                    data: &v,
+                    components: D,
+                },
+            },
+            Field {
+                name: "damage",
+                data: FieldData::Scalar(view.damage()),
+            },
+            Field {
+                name: "strain_energy_density",
+                data: FieldData::Scalar(view.energy_density()),
+            },
+            Field {
+                name: "block",
+                data: FieldData::Int(&blocks),
+            },
+        ],
+    )
 }

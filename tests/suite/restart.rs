@@ -333,6 +333,28 @@ fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A relaxation that does not converge stops the run with its load step named, and the last
+/// good state (the latest checkpoint: every committed step here) is written beside the
+/// snapshots, not in their series.
+#[test]
+fn a_failed_run_writes_its_last_good_state() {
+    let dir = scratch("last-good");
+    let solver = "load_steps = 10\ntolerance = 1e-4\nmax_iterations = 150";
+    let text = quasi_static_text(2e-5, solver, "checkpoint_interval = 1");
+    let ld = load(&dir, "qs.toml", &text);
+    let out = dir.join("run");
+    let err = run(&ld, &options(&out, None)).expect_err("150 iterations cannot follow the crack");
+    let failed = match &err {
+        RunError::Step(peridyn::solver::StepError::NotConverged { step, .. }) => *step,
+        other => panic!("expected a relaxation that did not converge, got {other}"),
+    };
+    let last_good = out.join(format!("fields/last_good_step_{:08}.vtu", failed - 1));
+    assert!(last_good.exists(), "{} after {err}", last_good.display());
+    let pvd = std::fs::read_to_string(out.join("fields.pvd")).unwrap();
+    assert!(!pvd.contains("last_good"), "{pvd}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A staged run (a quasi-static preload, then the grips driven apart in explicit dynamics),
 /// stopped inside the quasi-static stage, at its end and inside the dynamic stage: each
 /// continuation leaves the files of the run that never stopped, stages.csv included.
