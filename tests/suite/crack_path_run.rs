@@ -65,10 +65,10 @@ end_time = 1e-7
 
 [analysis.crack_path]
 "#;
-    let err = LoadedDeck::from_str(text, Path::new("path3d.toml"))
-        .err()
-        .expect("refused")
-        .to_string();
+    let Err(err) = LoadedDeck::from_str(text, Path::new("path3d.toml")) else {
+        panic!("refused")
+    };
+    let err = err.to_string();
     assert!(
         err.contains("analysis.crack_path") && err.contains("2D"),
         "{err}"

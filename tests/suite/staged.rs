@@ -255,10 +255,10 @@ component = "y"
 value = 1.0
 "#,
     );
-    let err = LoadedDeck::from_str(&bad, Path::new("staged.toml"))
-        .err()
-        .expect("a bad stage is refused")
-        .to_string();
+    let Err(err) = LoadedDeck::from_str(&bad, Path::new("staged.toml")) else {
+        panic!("a bad stage is refused")
+    };
+    let err = err.to_string();
     for expected in [
         "stages[0].solver.load_steps",
         "stages[0].boundary_conditions[0].kind",
