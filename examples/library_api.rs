@@ -107,7 +107,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &OutputDeck::default(), // the damage map, as a deck without [output] draws
             "library API example",
         )?),
-        Box::new(Progress::new(steps, false)),
+        Box::new(Progress::new(steps as f64 * sim.dt, false)),
     ];
     let result = drive(&mut sim, steps, &mut observers);
     for o in observers.iter_mut() {

@@ -633,7 +633,7 @@ fn run_model<const D: usize, M: Material<D>>(
     let mut observers: Vec<Box<dyn Observer<D>>> = vec![
         history,
         Box::new(snapshots),
-        Box::new(Progress::new(report.steps, opts.quiet)),
+        Box::new(Progress::new(report.end_time, opts.quiet)),
     ];
     if staged {
         // Energies at each stage's end; the profile along the crack's direction (x by default).
