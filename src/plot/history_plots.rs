@@ -121,26 +121,8 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     )?;
 
     // Load–displacement of every node set that carries a reaction, along its largest one.
-    let sets: Vec<String> = table
-        .columns
-        .iter()
-        .filter_map(|c| {
-            c.strip_prefix("reaction_")?
-                .strip_suffix("_x")
-                .map(String::from)
-        })
-        .collect();
-    for set in sets {
-        let mut best: Option<(&str, f64)> = None;
-        for axis in ["x", "y", "z"] {
-            if let Some(r) = table.column(&format!("reaction_{set}_{axis}")) {
-                let peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                if peak > 0.0 && best.is_none_or(|(_, b)| peak > b) {
-                    best = Some((axis, peak));
-                }
-            }
-        }
-        let Some((axis, _)) = best else { continue };
+    let loaded = loaded_sets(&table);
+    for (set, axis) in &loaded {
         if let Some(p) = table.pairs(
             &format!("displacement_{set}_{axis}"),
             &format!("reaction_{set}_{axis}"),
@@ -155,11 +137,14 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
         }
     }
 
-    let openings: Vec<(String, Vec<(f64, f64)>)> = table
+    let opening_names: Vec<String> = table
         .columns
         .iter()
-        .filter(|c| c.starts_with("opening_"))
-        .filter_map(|c| Some((c["opening_".len()..].to_string(), table.pairs("time", c)?)))
+        .filter_map(|c| c.strip_prefix("opening_").map(String::from))
+        .collect();
+    let openings: Vec<(String, Vec<(f64, f64)>)> = opening_names
+        .iter()
+        .filter_map(|o| Some((o.clone(), table.pairs("time", &format!("opening_{o}"))?)))
         .collect();
     plot(
         "openings.png".into(),
@@ -168,6 +153,25 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
         "opening (m)",
         openings,
     )?;
+    // Load against each opening (e.g. load–CMOD): every loaded set's reaction along its axis.
+    for o in &opening_names {
+        let curves: Vec<(String, Vec<(f64, f64)>)> = loaded
+            .iter()
+            .filter_map(|(set, axis)| {
+                let p = table.pairs(&format!("opening_{o}"), &format!("reaction_{set}_{axis}"))?;
+                Some((format!("{set} F_{axis}"), p))
+            })
+            .collect();
+        if !curves.is_empty() {
+            plot(
+                format!("load_opening_{o}.png"),
+                &format!("Load against the opening {o}"),
+                &format!("opening {o} (m)"),
+                "reaction (N)",
+                curves,
+            )?;
+        }
+    }
 
     for (column, file, title, label) in [
         ("broken_bonds", "broken_bonds.png", "Broken bonds", "bonds"),
@@ -190,4 +194,27 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     }
     written.extend(super::crack_plots::write_crack_plots(run_dir, &dir)?);
     Ok(written)
+}
+
+/// The node sets with a reaction in the history, each with the axis of its largest one
+/// (sets whose reaction stays zero are left out).
+fn loaded_sets(table: &HistoryTable) -> Vec<(String, &'static str)> {
+    let sets = table.columns.iter().filter_map(|c| {
+        c.strip_prefix("reaction_")?
+            .strip_suffix("_x")
+            .map(String::from)
+    });
+    sets.filter_map(|set| {
+        let mut best: Option<(&'static str, f64)> = None;
+        for axis in ["x", "y", "z"] {
+            if let Some(r) = table.column(&format!("reaction_{set}_{axis}")) {
+                let peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                if peak > 0.0 && best.is_none_or(|(_, b)| peak > b) {
+                    best = Some((axis, peak));
+                }
+            }
+        }
+        Some((set, best?.0))
+    })
+    .collect()
 }
