@@ -34,3 +34,4 @@ mod separation_work;
 mod softening;
 mod staged;
 mod wave_speed;
+mod wedge_splitting;
