@@ -17,6 +17,7 @@ use crate::material::{
     Correspondence, Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile,
     Mixed, Pmb,
 };
+use crate::math::Vector;
 use crate::solver::{EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
 use std::time::Instant;
 
@@ -35,9 +36,11 @@ pub struct BenchResult {
 /// The cases, in table order: model, damage law, dimension (and "-nopv": no partial-volume
 /// band, the ~122 bonds per node of δ/Δx = 3 that other codes quote; "-dh": the right half
 /// with a 2δ horizon; "-mixed": PMB left, LPS right; "-contact": node–node contact with the
-/// deck's defaults, "-idle" with no node near another, else a crack across the block whose
-/// faces are pressed together, `contact_interface`).
-pub const CASES: [&str; 19] = [
+/// deck's defaults, "-idle" with no node near another, "-dense" every bond broken and the
+/// block compressed so every node touches its nearest neighbours, else a crack across the
+/// block whose faces are pressed together, `arrange`; "-fragments": the dense arrangement
+/// without contact, the baseline that isolates the contact pass's own cost).
+pub const CASES: [&str; 21] = [
     "pmb-2d",
     "lps-2d",
     "correspondence-2d",
@@ -57,6 +60,8 @@ pub const CASES: [&str; 19] = [
     "mixed-3d",
     "pmb-contact-idle-2d",
     "pmb-contact-2d",
+    "pmb-contact-dense-2d",
+    "pmb-fragments-2d",
 ];
 
 const E: f64 = 70e9;
@@ -268,9 +273,20 @@ fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -
             let mixed = mixed.into_central().expect("PMB and LPS blocks");
             measure(name, model, mixed, laws.into(), steps, threads)
         }
-        _ if name.contains("-contact") => {
-            let active = !name.contains("idle");
-            let setup = |sim: &mut Simulation<D, Pmb>| contact_interface(sim, active);
+        _ if name.contains("-contact") || name.contains("-fragments") => {
+            let touching = if name.contains("idle") {
+                Touching::Nothing
+            } else if name.contains("dense") || name.contains("fragments") {
+                Touching::Everything
+            } else {
+                Touching::PressedCut
+            };
+            let setup = |sim: &mut Simulation<D, Pmb>| {
+                if name.contains("-contact") {
+                    enable_contact(sim);
+                }
+                arrange(sim, touching);
+            };
             measure_with(name, model, (pmb::<D>(), stretch()), steps, threads, setup)
         }
         _ => {
@@ -288,11 +304,25 @@ fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -
     }
 }
 
+/// What touches in a contact case.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Touching {
+    /// The intact block at rest: no node within r_c of another.
+    Nothing,
+    /// The block cut across its middle (every bond crossing y = mid broken) and its upper half
+    /// moved down by 0.2Δx, a rigid shift: the rows facing each other across the cut are 0.8Δx
+    /// apart, within r_c, while no bond is strained (a closed crack's faces).
+    PressedCut,
+    /// Every bond broken (a heap of fragments) and the block compressed by 20 % about its
+    /// centre: each node is 0.8Δx from its 2D nearest neighbours (in contact) and 1.13Δx from
+    /// its diagonal ones (candidates within r_c + skin, not in contact). The outer three rows
+    /// are held at rest (a confined heap, in equilibrium inside): a free heap would burst, and
+    /// its list be rebuilt at every step, which measures the burst, not contact.
+    Everything,
+}
+
 /// Turns on node–node contact with the deck's defaults (r_c = 0.9Δx, c_s = 15c, skin 0.3Δx).
-/// `pressed`: the block is cut across its middle (every bond crossing y = mid broken) and its
-/// upper half moved down by 0.2Δx, a rigid shift: the rows facing each other across the cut
-/// are 0.8Δx apart, within r_c, while no bond is strained (a closed crack's faces).
-fn contact_interface<const D: usize>(sim: &mut Simulation<D, Pmb>, pressed: bool) {
+fn enable_contact<const D: usize>(sim: &mut Simulation<D, Pmb>) {
     use crate::deck::contact::{micromodulus, Scales, RADIUS_FACTOR, SKIN_FACTOR};
     use crate::solver::contact::{ContactSettings, NodeContact};
     let scales = Scales {
@@ -308,20 +338,65 @@ fn contact_interface<const D: usize>(sim: &mut Simulation<D, Pmb>, pressed: bool
         horizon: 3.0 * DX,
         skin: SKIN_FACTOR * DX,
     }));
-    if pressed {
-        let top = sim.body.positions.iter().map(|p| p[1]).fold(0.0, f64::max);
-        let mid = 0.5 * (top + 0.5 * DX);
-        let above = |i: usize| sim.body.positions[i][1] > mid;
-        for i in 0..sim.body.len() {
-            for b in sim.bonds.family(i) {
-                if above(i) != above(sim.bonds.neighbors[b] as usize) {
-                    sim.state.status[b] = crate::state::BROKEN;
+}
+
+/// Arranges the block as `touching` says and computes the forces there.
+fn arrange<const D: usize>(sim: &mut Simulation<D, Pmb>, touching: Touching) {
+    match touching {
+        Touching::Nothing => {}
+        Touching::PressedCut => {
+            let top = sim.body.positions.iter().map(|p| p[1]).fold(0.0, f64::max);
+            let mid = 0.5 * (top + 0.5 * DX);
+            let above = |i: usize| sim.body.positions[i][1] > mid;
+            for i in 0..sim.body.len() {
+                for b in sim.bonds.family(i) {
+                    if above(i) != above(sim.bonds.neighbors[b] as usize) {
+                        sim.state.status[b] = crate::state::BROKEN;
+                    }
                 }
             }
+            for i in (0..sim.body.len()).filter(|&i| above(i)) {
+                sim.state.u[i][1] -= 0.2 * DX;
+                sim.state.current[i] = sim.body.positions[i] + sim.state.u[i];
+            }
         }
-        for i in (0..sim.body.len()).filter(|&i| above(i)) {
-            sim.state.u[i][1] -= 0.2 * DX;
-            sim.state.current[i] = sim.body.positions[i] + sim.state.u[i];
+        Touching::Everything => {
+            sim.state.status.fill(crate::state::BROKEN);
+            let n = sim.body.len() as f64;
+            let centre = sim
+                .body
+                .positions
+                .iter()
+                .fold(Vector::<D>::zeros(), |c, p| c + p)
+                / n;
+            for i in 0..sim.body.len() {
+                sim.state.u[i] = (centre - sim.body.positions[i]) * 0.2;
+                sim.state.current[i] = sim.body.positions[i] + sim.state.u[i];
+            }
+            let (lo, hi) = sim.body.positions.iter().fold(
+                (Vector::<D>::repeat(f64::INFINITY), Vector::<D>::repeat(f64::NEG_INFINITY)),
+                |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+            );
+            let border: Vec<u32> = (0..sim.body.len())
+                .filter(|&i| {
+                    let p = sim.body.positions[i];
+                    (0..D).any(|k| p[k] < lo[k] + 2.5 * DX || p[k] > hi[k] - 2.5 * DX)
+                })
+                .map(|i| i as u32)
+                .collect();
+            for i in &border {
+                sim.state.v[*i as usize] = Vector::<D>::zeros();
+            }
+            for component in 0..D {
+                sim.loading.conditions.push(BoundaryCondition {
+                    set: "border".into(),
+                    nodes: border.clone(),
+                    kind: Kinematic::Velocity,
+                    component,
+                    value: 0.0,
+                    time: TimeFunction::Constant,
+                });
+            }
         }
     }
     sim.refresh_forces().expect("contact forces");
@@ -670,20 +745,50 @@ mod tests {
         assert!(err.contains("pmb-3d") && err.contains("ncg-2d"), "{err}");
     }
 
-    /// The pressed cut has its faces in contact and no bond strained; idle, nothing touches.
+    /// The pressed cut has its faces in contact and no bond strained; idle, nothing touches;
+    /// dense, every node pushes on its four nearest neighbours.
     #[test]
-    fn the_contact_cases_press_a_cut_or_touch_nothing() {
-        for pressed in [false, true] {
+    fn the_contact_cases_press_a_cut_or_touch_nothing_or_everything() {
+        for touching in [
+            Touching::Nothing,
+            Touching::PressedCut,
+            Touching::Everything,
+        ] {
             let (body, bonds) = block::<2>(30_000, PartialVolume::Hhb, false);
             let loading = Loading::default();
             let rule = PartialVolume::Hhb;
             let mut sim =
                 Simulation::new(body, bonds, pmb::<2>(), stretch(), rule, loading, None, 0.8)
                     .unwrap();
-            contact_interface(&mut sim, pressed);
+            enable_contact(&mut sim);
+            arrange(&mut sim, touching);
             let energy = sim.contact.as_ref().unwrap().energy;
-            assert_eq!(energy > 0.0, pressed, "contact energy {energy}");
+            assert_eq!(
+                energy > 0.0,
+                touching != Touching::Nothing,
+                "contact energy {energy}"
+            );
             assert!(sim.strain_energy() < 1e-12 * energy.max(1e-30) + 1e-30);
+            if touching == Touching::Everything {
+                // Every node but the block's edges has 4 neighbours in contact and 8
+                // candidates: the energy is that of 2 pairs per node at overlap 0.1Δx.
+                let c = sim.contact.as_ref().unwrap();
+                let n = sim.body.len();
+                assert!(
+                    c.candidates() > 7 * n && c.candidates() <= 8 * n,
+                    "{}",
+                    c.candidates()
+                );
+                let v = sim.body.volumes[0];
+                let overlap = 0.1 * DX;
+                let per_pair =
+                    0.5 * c.settings.stiffness * v * v * overlap * overlap / c.settings.horizon;
+                let pairs = energy / per_pair;
+                assert!(
+                    pairs > 1.9 * n as f64 && pairs <= 2.0 * n as f64,
+                    "{pairs} pairs for {n} nodes"
+                );
+            }
         }
         let r = case::<2>("pmb-contact-2d", 30_000, 2, 1);
         assert!(r.node_steps_per_second > 0.0);
