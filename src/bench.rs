@@ -374,7 +374,10 @@ fn arrange<const D: usize>(sim: &mut Simulation<D, Pmb>, touching: Touching) {
                 sim.state.current[i] = sim.body.positions[i] + sim.state.u[i];
             }
             let (lo, hi) = sim.body.positions.iter().fold(
-                (Vector::<D>::repeat(f64::INFINITY), Vector::<D>::repeat(f64::NEG_INFINITY)),
+                (
+                    Vector::<D>::repeat(f64::INFINITY),
+                    Vector::<D>::repeat(f64::NEG_INFINITY),
+                ),
                 |(lo, hi), p| (lo.inf(p), hi.sup(p)),
             );
             let border: Vec<u32> = (0..sim.body.len())

@@ -5,11 +5,12 @@
 //! - origin: peridyn version and deck file (u32 length + UTF-8 each), hash of the resolved deck
 //!   (u64, FNV-1a 64 of its text);
 //! - sizes (u64 each): dimension, nodes, directed bond entries, history words, previous
-//!   positions, the quasi-static predictor's displacements (0 or nodes);
+//!   positions, the quasi-static predictor's displacements (0 or nodes), impactors;
 //! - payload: the State scalars, the driver state (time step controller, stage in progress,
 //!   quasi-static solver), then the arrays (u, v, current, force, body_force as D f64 per
 //!   node; status as u8; history as f64; previous as D f64 each; the predictor's
-//!   displacements as D f64 each);
+//!   displacements as D f64 each; per impactor its position, velocity and force as D f64
+//!   each and its penalty energy);
 //! - FNV-1a 64 of every byte before it.
 //!
 //! Written atomically (temp file + rename): the file on disk is always a whole checkpoint.
@@ -17,6 +18,7 @@
 use crate::atomic_file::{with_path, write_atomic_with};
 use crate::math::Vector;
 use crate::observe::Every;
+use crate::solver::impactor::ImpactorState;
 use crate::solver::quasi_static::QuasiStaticMemory;
 use crate::state::State;
 use std::io::{self, Write};
@@ -24,7 +26,7 @@ use std::path::{Path, PathBuf};
 
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
-const FORMAT: u32 = 2;
+const FORMAT: u32 = 3;
 /// State and driver scalars in the payload.
 const SCALARS: usize = 20;
 
@@ -51,7 +53,7 @@ impl Origin {
 
 /// What the next step depends on besides `State`: the time step to try next (the adaptive
 /// controller changes it) and the adaptive controller's counters, the stage in progress and
-/// where it started, and the quasi-static solver's memory.
+/// where it started, the quasi-static solver's memory and the impactors' motion.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DriverState<const D: usize> {
     pub next_dt: f64,
@@ -63,6 +65,7 @@ pub struct DriverState<const D: usize> {
     pub stage: u64,
     pub stage_start: (u64, f64),
     pub quasi_static: Option<QuasiStaticMemory<D>>,
+    pub impactors: Vec<ImpactorState<D>>,
 }
 
 /// When and where a run writes its checkpoint: at the snapshots (`[output] checkpoint`) and
@@ -96,8 +99,6 @@ impl Checkpoints {
 pub enum CheckpointError {
     #[error("no checkpoint to restart from: {} does not exist (a run writes it at every snapshot unless [output] checkpoint = false)", .0.display())]
     Missing(PathBuf),
-    #[error("restarting {0} is not supported yet")]
-    Unsupported(&'static str),
     #[error("{0}")]
     Io(#[from] io::Error),
     #[error("{} is not a peridyn checkpoint (it does not start with {:?})", .0.display(), std::str::from_utf8(MAGIC).unwrap_or_default())]
@@ -217,6 +218,7 @@ pub fn write<const D: usize>(
             history.len(),
             previous.len(),
             predictor,
+            driver.impactors.len(),
         ] {
             w.write_all(&(size as u64).to_le_bytes())?;
         }
@@ -256,6 +258,10 @@ pub fn write<const D: usize>(
         put_vectors(&mut w, previous)?;
         if let Some((_, displacements)) = qs_previous {
             put_vectors(&mut w, displacements)?;
+        }
+        for im in &driver.impactors {
+            put_vectors(&mut w, &[im.position, im.velocity, im.force])?;
+            w.write_all(&im.energy.to_le_bytes())?;
         }
         let hash = w.hash;
         w.inner.write_all(&hash.to_le_bytes())
@@ -407,12 +413,14 @@ pub fn restore<const D: usize>(
             expected: n as u64,
         });
     }
+    let impactors = r.u64()? as usize;
     let payload = SCALARS * 8
         + 5 * n * D * 8
         + status.len()
         + history.len() * 8
-        + (previous.len() + predictor) * D * 8;
-    let expected = (r.pos + payload + 8) as u64;
+        + (previous.len() + predictor) * D * 8
+        + impactors.saturating_mul((3 * D + 1) * 8);
+    let expected = r.pos.saturating_add(payload).saturating_add(8) as u64;
     if bytes.len() as u64 != expected {
         return Err(CheckpointError::Truncated {
             path: path.to_path_buf(),
@@ -443,6 +451,7 @@ pub fn restore<const D: usize>(
         stage: r.u64()?,
         stage_start: (r.u64()?, r.f64()?),
         quasi_static: None,
+        impactors: Vec::with_capacity(impactors),
     };
     let qs = r.u64()? == 1;
     let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
@@ -464,6 +473,17 @@ pub fn restore<const D: usize>(
             largest_load,
             iterations,
             previous: has_previous.then_some((previous_time, displacements)),
+        });
+    }
+    for _ in 0..impactors {
+        let mut motion = [Vector::<D>::zeros(); 3];
+        r.vectors(&mut motion)?;
+        let [position, velocity, force] = motion;
+        driver.impactors.push(ImpactorState {
+            position,
+            velocity,
+            force,
+            energy: r.f64()?,
         });
     }
     Ok(driver)

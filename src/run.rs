@@ -332,12 +332,6 @@ fn run_dim<const D: usize>(
     }
 }
 
-/// Why a deck's run cannot be continued from a checkpoint (then it writes none).
-fn restart_unsupported(deck: &crate::deck::Deck) -> Option<&'static str> {
-    (!deck.impactors.is_empty())
-        .then_some("a run with impactors (their position and velocity are not checkpointed)")
-}
-
 /// A constitution without its material: what `prepare` needs besides it.
 pub struct DamageAndReports {
     pub damage: Damage,
@@ -557,10 +551,6 @@ fn run_model<const D: usize, M: Material<D>>(
     let pores = model.pores.clone();
     let deck = &ld.deck;
     let out = &opts.out_dir;
-    let unsupported = restart_unsupported(deck);
-    if let (true, Some(what)) = (control.restart, unsupported) {
-        return Err(CheckpointError::Unsupported(what).into());
-    }
     let plans = std::mem::take(&mut model.stages);
     let (mut sim, report) = prepare(ld, model, material, rest)?;
     let resolved = resolved_deck(ld)?;
@@ -568,11 +558,9 @@ fn run_model<const D: usize, M: Material<D>>(
     let checkpoint_path = out.join(crate::checkpoint::FILE_NAME);
     // Checked before anything is written: a refused restart leaves the folder as it was.
     let resume = if control.restart {
-        Some(crate::checkpoint::restore(
-            &checkpoint_path,
-            &origin,
-            &mut sim.state,
-        )?)
+        let driver = crate::checkpoint::restore(&checkpoint_path, &origin, &mut sim.state)?;
+        sim.impactors.restore(&driver.impactors);
+        Some(driver)
     } else {
         None
     };
@@ -673,14 +661,15 @@ fn run_model<const D: usize, M: Material<D>>(
         _ => None,
     };
 
-    let checkpoints = (unsupported.is_none()
-        && (deck.output.checkpoint || deck.output.checkpoint_interval.is_some()))
-    .then(|| Checkpoints {
-        path: checkpoint_path,
-        origin,
-        snapshots: deck.output.checkpoint.then_some(Every(snapshot_every)),
-        interval: deck.output.checkpoint_interval,
-    });
+    let checkpoints =
+        (deck.output.checkpoint || deck.output.checkpoint_interval.is_some()).then(|| {
+            Checkpoints {
+                path: checkpoint_path,
+                origin,
+                snapshots: deck.output.checkpoint.then_some(Every(snapshot_every)),
+                interval: deck.output.checkpoint_interval,
+            }
+        });
 
     let latest_checkpoint = checkpoints
         .as_ref()
@@ -1016,6 +1005,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             let driver = DriverState {
                 stage: self.stage,
                 stage_start: self.stage_start,
+                impactors: sim.impactors.states(),
                 ..driver(sim)
             };
             c.write(&sim.state, &driver)?;

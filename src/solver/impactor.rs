@@ -159,6 +159,17 @@ impl<const D: usize> Impactor<D> {
     }
 }
 
+/// What a checkpoint keeps of an impactor: where it is and how fast it moves, and the force
+/// and penalty energy of the last evaluation (the next step's half-kick, the history and the
+/// energy balance read them). The rest is the deck's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImpactorState<const D: usize> {
+    pub position: Vector<D>,
+    pub velocity: Vector<D>,
+    pub force: Vector<D>,
+    pub energy: f64,
+}
+
 /// The impactors of a run (empty: none, at no cost).
 #[derive(Debug, Clone, Default)]
 pub struct Impactors<const D: usize> {
@@ -203,6 +214,30 @@ impl<const D: usize> Impactors<D> {
             }
         }
         work
+    }
+
+    /// Every impactor's state, in deck order, for a checkpoint.
+    pub fn states(&self) -> Vec<ImpactorState<D>> {
+        self.list
+            .iter()
+            .map(|im| ImpactorState {
+                position: im.position,
+                velocity: im.velocity,
+                force: im.force,
+                energy: im.energy,
+            })
+            .collect()
+    }
+
+    /// Puts back the states a checkpoint kept (the same deck: the same impactors, in order).
+    pub fn restore(&mut self, states: &[ImpactorState<D>]) {
+        assert_eq!(states.len(), self.list.len(), "impactors of another deck");
+        for (im, s) in self.list.iter_mut().zip(states) {
+            im.position = s.position;
+            im.velocity = s.velocity;
+            im.force = s.force;
+            im.energy = s.energy;
+        }
     }
 
     /// Penalty energy of every impactor (J).

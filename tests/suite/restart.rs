@@ -173,6 +173,32 @@ fn explicit_run_with_crack_tip_continued_after_a_stop_is_byte_identical() {
 }
 
 #[test]
+fn run_with_a_free_impactor_continued_after_a_stop_is_byte_identical() {
+    let dir = scratch("impactor");
+    // A free disk dropped on the top grip at 50 m/s: it presses on the plate from the first
+    // steps on, so the checkpoint at step 200 holds a disk that the plate has slowed down and
+    // is pushing back; continued without its position, velocity and force, the disk would
+    // jump back to the deck's start.
+    let disk = "checkpoint_interval = 100\n\n[[impactors]]\nname = \"disk\"\nshape = \"sphere\"\ncentre = [0.004, 0.0061]\nradius = 0.002\nvelocity = [0.0, -50.0]\nmass = 5e-6";
+    let ld = load(&dir, "plate.toml", &deck_text(3.09e9, "steps = 600", disk));
+    assert_restart_matches(&ld, &dir, 230);
+    let history = std::fs::read_to_string(dir.join("whole/history.csv")).unwrap();
+    let mut rows = history.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (step, force) = (column("step"), column("impactor_disk_force_y"));
+    let pressed_before_the_checkpoint = rows.any(|r| {
+        let r: Vec<&str> = r.split(',').collect();
+        r[step].parse::<u64>().unwrap() < 200 && r[force].parse::<f64>().unwrap() > 0.0
+    });
+    assert!(
+        pressed_before_the_checkpoint,
+        "the disk must touch the plate before step 200"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn adaptive_run_continued_after_a_stop_is_byte_identical() {
     let dir = scratch("adaptive");
     let ld = load(
