@@ -678,7 +678,11 @@ fn run_model<const D: usize, M: Material<D>>(
         }
         _ => None,
     };
-    let surface = match deck.analysis.as_ref().and_then(|a| a.crack_surface.as_ref()) {
+    let surface = match deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.crack_surface.as_ref())
+    {
         Some(a) if D == 3 => {
             let mut observer = crack_surface(deck, a, &sim, out);
             if resume.is_some() {

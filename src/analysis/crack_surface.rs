@@ -82,7 +82,8 @@ pub fn pair_density<const D: usize>(horizon: f64, thickness: f64) -> f64 {
 /// The crack area (m²) of the broken halves, summed in the order given (a fixed order gives
 /// the same bits for any thread count).
 pub fn crack_area<const D: usize>(halves: &[BrokenHalf<D>], thickness: f64) -> f64 {
-    halves.iter().map(|h| h.area(thickness)).sum()
+    // From +0: an empty sum of f64 is −0, which would print as "-0".
+    halves.iter().fold(0.0, |a, h| a + h.area(thickness))
 }
 
 /// The two in-plane axes of a surface with normal `axis`, in increasing order.

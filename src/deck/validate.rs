@@ -401,7 +401,11 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     if let Some(path) = deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
         validate_crack_path(&mut out, path, d);
     }
-    if let Some(surface) = deck.analysis.as_ref().and_then(|a| a.crack_surface.as_ref()) {
+    if let Some(surface) = deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.crack_surface.as_ref())
+    {
         validate_crack_surface(&mut out, surface, d);
     }
     out

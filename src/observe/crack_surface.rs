@@ -166,7 +166,9 @@ impl CrackSurface {
             let [Some(time), Some(s), Some(area), Some(dissipated), ..] = cells[..] else {
                 return Err(cannot_continue(
                     &path,
-                    format!("expected time, step, crack area and dissipated energy, found {line:?}"),
+                    format!(
+                        "expected time, step, crack area and dissipated energy, found {line:?}"
+                    ),
                 ));
             };
             self.samples.push(Sample {
@@ -183,9 +185,8 @@ impl CrackSurface {
     /// since the one before (seed 002 Eq. 13 with the crack area for ā), empty where the area
     /// did not grow; Γ/G0 when G0 is known.
     fn render_area(&self) -> String {
-        let mut s = String::from(
-            "time,step,crack_area,damage_dissipation,dissipation_rate,rate_over_g0\n",
-        );
+        let mut s =
+            String::from("time,step,crack_area,damage_dissipation,dissipation_rate,rate_over_g0\n");
         let mut previous: Option<&Sample> = None;
         for smp in &self.samples {
             push_number(&mut s, smp.time);
