@@ -236,7 +236,7 @@ fn cuts_through_2d_lattice_plates_give_their_area() {
 
 use super::crack_tracking::{num, read_csv};
 use peridyn::deck::LoadedDeck;
-use peridyn::run::{run, RunOptions, RunSummary};
+use peridyn::run::{run, run_with, RunControl, RunError, RunOptions, RunSummary};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -320,6 +320,7 @@ history_interval = 0
 snapshots = 0
 png = false
 plots = false
+checkpoint_interval = 100
 
 {analysis}
 "#,
@@ -466,4 +467,43 @@ fn surface_files_do_not_depend_on_the_thread_count() {
         assert!(a.len() > 100, "{file} is nearly empty");
     }
     std::fs::remove_dir_all(&one).ok();
+}
+
+#[test]
+fn a_run_continued_from_a_checkpoint_writes_the_same_surface_files() {
+    let (whole, _) = two_thread_run();
+    // Checkpoints every 100 steps; stopped after step 230 as a killed run, continued from
+    // step 200 (the crack has started at ≈ 8 µs ≈ step 180) on the other thread count.
+    let ld = block(SPEED, END_TIME, SURFACE);
+    let dir = out_dir("restart");
+    let opts = RunOptions {
+        out_dir: dir.clone(),
+        threads: Some(1),
+        quiet: true,
+    };
+    let stop = RunControl {
+        stop_after_step: Some(230),
+        ..RunControl::default()
+    };
+    let stopped = run_with(&ld, &opts, &stop);
+    assert!(
+        matches!(stopped, Err(RunError::Stopped(230))),
+        "{stopped:?}"
+    );
+    let (_, rows) = read_csv(&dir.join("crack_area.csv"));
+    assert!(
+        rows.iter().any(|r| num(&r[2]) > 0.0),
+        "the checkpoint comes after the crack started"
+    );
+    let restart = RunControl {
+        restart: true,
+        ..RunControl::default()
+    };
+    run_with(&ld, &opts, &restart).unwrap_or_else(|e| panic!("{e}"));
+    for file in ["crack_area.csv", "crack_surface.csv", "crack_surface.vtu"] {
+        let a = std::fs::read(dir.join(file)).unwrap();
+        let b = std::fs::read(whole.join(file)).unwrap();
+        assert!(a == b, "{file} differs after a restart");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
