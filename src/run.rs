@@ -13,6 +13,7 @@ use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
 use crate::math::Vector;
 use crate::observe::crack_path::{CrackPath, PathReport, PathSettings};
+use crate::observe::crack_surface::{CrackSurface, CrackSurfaceReport, SurfaceSettings};
 use crate::observe::crack_tip::{CrackReport, CrackTips};
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
@@ -229,6 +230,8 @@ pub struct RunSummary {
     pub crack: Option<CrackReport>,
     /// With `[analysis.crack_path]`: the path, its comparison with the reference, the forks.
     pub crack_path: Option<PathReport>,
+    /// With `[analysis.crack_surface]`: the crack area, its cells and E_diss/A.
+    pub crack_surface: Option<CrackSurfaceReport>,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -250,6 +253,9 @@ impl std::fmt::Display for RunSummary {
         }
         if let Some(p) = &self.crack_path {
             writeln!(f, "crack path       {p}")?;
+        }
+        if let Some(a) = &self.crack_surface {
+            writeln!(f, "crack surface    {a}")?;
         }
         writeln!(f, "timers           {}", self.timers)?;
         write!(f, "results in       {}", self.out_dir.display())
@@ -660,6 +666,22 @@ fn run_model<const D: usize, M: Material<D>>(
         }
         _ => None,
     };
+    let surface = match deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.crack_surface.as_ref())
+    {
+        Some(a) if D == 3 => {
+            let mut observer = crack_surface(deck, a, &sim, out);
+            if resume.is_some() {
+                observer = observer.resume(step)?;
+            }
+            let handle = observer.report();
+            observers.push(Box::new(observer));
+            Some(handle)
+        }
+        _ => None,
+    };
 
     let checkpoints =
         (deck.output.checkpoint || deck.output.checkpoint_interval.is_some()).then(|| {
@@ -727,6 +749,7 @@ fn run_model<const D: usize, M: Material<D>>(
         report,
         crack: crack.and_then(|c| c.borrow().clone()),
         crack_path: path.and_then(|c| c.borrow().clone()),
+        crack_surface: surface.and_then(|c| c.borrow().clone()),
     };
     if deck.output.plots {
         crate::plot::history_plots::write_history_plots(out)
@@ -855,6 +878,24 @@ fn crack_path<const D: usize>(
             fit_bands: p.fit_bands,
         },
     )
+}
+
+/// The crack-surface observer of `[analysis.crack_surface]`: the cell side defaults to twice
+/// the smallest cell size, and Γ is compared with the deck's `[material]` G0, as the 2D
+/// dissipation rate of `[analysis.crack_tip]` is.
+fn crack_surface<const D: usize, M: Material<D>>(
+    deck: &crate::deck::Deck,
+    a: &crate::deck::schema::CrackSurfaceDeck,
+    sim: &Simulation<D, M>,
+    out: &std::path::Path,
+) -> CrackSurface {
+    let settings = SurfaceSettings {
+        axis: a.axis.index(),
+        bin_width: a.bin_width.unwrap_or(2.0 * sim.body.min_cell_size()),
+        interval: a.interval,
+        g0: deck.material.fracture_energy(),
+    };
+    CrackSurface::new(out, &sim.body, &sim.bonds, &sim.engine.quad, settings)
 }
 
 /// Runs the deck's stages one after the other: each starts from the state the one before

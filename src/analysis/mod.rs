@@ -9,6 +9,8 @@
 //! - `crack_path`: the crack as a 2D polyline and its Pearson correlation with a reference
 //!   path (seed 003 Eq. 17).
 //! - `dissipation_rate`: Γ = dE_diss/dā of a running crack (seed 002 Eq. 13).
+//! - `crack_surface`: the crack area from the broken bonds (2D and 3D) and, in 3D, the crack
+//!   as a surface binned on a grid normal to its mean normal.
 //! - `branching`: connected damaged regions and the fork of a branching 2D crack, with the
 //!   branch angles.
 //!
@@ -18,6 +20,7 @@
 pub mod branching;
 pub mod crack_path;
 pub mod crack_speed;
+pub mod crack_surface;
 pub mod crack_tip;
 pub mod dissipation_rate;
 
@@ -25,6 +28,9 @@ pub use branching::{damaged_components, find_forks, Fork, ForkBranch};
 pub use crack_path::{compare_paths, crack_path, pearson, PathComparison};
 pub use crack_speed::{
     crack_speed, rayleigh_speed, wave_speeds, SpeedSample, WaveSetting, WaveSpeeds,
+};
+pub use crack_surface::{
+    crack_area, crack_surface, in_plane_axes, pair_density, BrokenHalf, SurfaceCell,
 };
 pub use crack_tip::{
     branch_history, crack_front, find_tip, Branch, CrackFront, SearchBox, Tip, TipSample,

@@ -888,6 +888,26 @@ pub struct AnalysisDeck {
     /// The crack path and its forks, 2D (`crack_path.csv`, `branching.csv`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crack_path: Option<CrackPathDeck>,
+    /// The crack as a surface and its area, 3D (`crack_surface.csv`, `crack_surface.vtu`,
+    /// `crack_area.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crack_surface: Option<CrackSurfaceDeck>,
+}
+
+/// `[analysis.crack_surface]` (3D): the crack area from the broken bonds every `interval`
+/// steps, with the dissipation rate Γ = dE_diss/dA (seed 002 Eq. 13), and at the end the
+/// crack surface binned on square cells of side `bin_width` in the plane normal to `axis`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrackSurfaceDeck {
+    /// The crack's mean normal ("x", "y" or "z").
+    pub axis: Component,
+    /// Cell side (m); absent: twice the smallest cell size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bin_width: Option<f64>,
+    /// Steps between area samples (the last step is always sampled).
+    #[serde(default = "default_tip_interval")]
+    pub interval: u64,
 }
 
 /// `[analysis.crack_path]` (2D): the crack as a polyline binned along `axis` at the end of the

@@ -401,6 +401,13 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     if let Some(path) = deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
         validate_crack_path(&mut out, path, d);
     }
+    if let Some(surface) = deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.crack_surface.as_ref())
+    {
+        validate_crack_surface(&mut out, surface, d);
+    }
     out
 }
 
@@ -458,6 +465,30 @@ fn validate_boundary_layers<'a>(
             )),
             None => {}
         }
+    }
+}
+
+/// `[analysis.crack_surface]`: 3D, a positive cell side, a schedule.
+fn validate_crack_surface(out: &mut Vec<DeckIssue>, surface: &CrackSurfaceDeck, d: usize) {
+    let at = |key: &str| format!("analysis.crack_surface.{key}");
+    if d != 3 {
+        out.push(DeckIssue::new(
+            "analysis.crack_surface",
+            "the crack surface is measured in 3D decks only (a 2D crack is a line: use [analysis.crack_path]); remove the table",
+        ));
+        return;
+    }
+    if let Some(v) = surface.bin_width.filter(|v| !(*v > 0.0 && v.is_finite())) {
+        out.push(DeckIssue::new(
+            &at("bin_width"),
+            format!("expected a cell side > 0 (m), found {v}"),
+        ));
+    }
+    if surface.interval == 0 {
+        out.push(DeckIssue::new(
+            &at("interval"),
+            "expected at least 1 step between area samples, found 0",
+        ));
     }
 }
 

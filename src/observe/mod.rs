@@ -1,6 +1,7 @@
 //! Observers of a run and the file writers they use.
 
 pub mod crack_path;
+pub mod crack_surface;
 pub mod crack_tip;
 pub mod csv;
 pub mod field_maps;

@@ -10,6 +10,7 @@ mod conformance;
 mod contact;
 mod correspondence;
 mod crack_path_run;
+mod crack_surface;
 mod crack_tracking;
 mod deck_errors;
 mod decks_good;
