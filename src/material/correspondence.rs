@@ -168,7 +168,8 @@ impl Correspondence {
         (h + h.transpose() + h.transpose() * h) * 0.5
     }
 
-    /// The vector kernels' view of the model: 3D, one horizon, ω = 1 or δ/|ξ|, after `setup`.
+    /// The vector kernels' view of the model: 3D, one horizon, ω = 1 or δ/|ξ|, after `setup`,
+    /// on a CPU with AVX2 and FMA.
     fn kernel_law<const D: usize>(&self, nodes: usize) -> Option<CorrespondenceLaw<'_>> {
         let PerNode::Uniform(horizon) = self.horizons else {
             return None;
@@ -178,12 +179,14 @@ impl Correspondence {
             Influence::Inverse => true,
             Influence::Gaussian => return None,
         };
-        (D == 3 && self.reference.len() == 3 * nodes).then_some(CorrespondenceLaw {
-            reference: &self.reference,
-            horizon,
-            inverse_influence,
-            control: self.control != ZeroEnergyControl::None,
-        })
+        (D == 3 && self.reference.len() == 3 * nodes && super::simd::fma_available()).then_some(
+            CorrespondenceLaw {
+                reference: &self.reference,
+                horizon,
+                inverse_influence,
+                control: self.control != ZeroEnergyControl::None,
+            },
+        )
     }
 
     /// Whether a shape tensor is too close to singular to invert.
@@ -391,11 +394,10 @@ impl<const D: usize> Material<D> for Correspondence {
         nb: &mut NodeBonds,
         w: &UniformWeights,
     ) -> Option<(Self::Point, u64)> {
-        if nb.work.is_some() {
-            return None; // no correspondence kernel for critical energy
-        }
+        // Under a critical-energy law (`nb.work`) the pre-pass reads only the bond status.
         let law = self.kernel_law::<D>(nb.current.len() / 3)?;
-        // SAFETY: forwarded from the caller; `reference` has one position per node.
+        // SAFETY: forwarded from the caller (with FMA, checked by `kernel_law`); `reference`
+        // has one position per node.
         let (k, n, broke) = unsafe { simd_correspondence::correspondence_sums(nb, &law, w) };
         let acc = CorrespondencePoint {
             b: SMatrix::from_column_slice(&k),
@@ -406,16 +408,15 @@ impl<const D: usize> Material<D> for Correspondence {
     }
 
     /// The other halves and the own-half sums on four bonds at a time, then
-    /// `own_half_force`, as the engine's factored loop.
+    /// `own_half_force`, as the engine's factored loop; under a uniform critical-energy law
+    /// (`nb.work`) both halves of each bond with its work record, as the engine's loop for
+    /// laws that decide on work.
     unsafe fn vector_force(
         &self,
         nb: &mut NodeBonds,
         w: &UniformWeights,
         points: &[Self::Point],
     ) -> Option<([f64; 3], u64)> {
-        if nb.work.is_some() {
-            return None; // no correspondence kernel for critical energy
-        }
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
         // SAFETY: `CorrespondencePoint` is `repr(C)` of three D×D f64 matrices (B, C1, H),
@@ -423,6 +424,17 @@ impl<const D: usize> Material<D> for Correspondence {
         let flat = unsafe {
             std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
         };
+        if let Some(energy) = nb.work {
+            // Both halves per bond and the vector work record (four words per bond) from the
+            // previous positions, which the engine keeps for this law.
+            if nb.previous.len() != nb.current.len() || nb.history.len() != 4 * nb.neighbors.len() {
+                return None;
+            }
+            // SAFETY: forwarded from the caller; the record and previous positions checked.
+            return Some(unsafe {
+                simd_correspondence::correspondence_force_work(nb, &law, w, &energy, flat, stride)
+            });
+        }
         // SAFETY: forwarded from the caller.
         let (other, sx, se) =
             unsafe { simd_correspondence::correspondence_force(nb, &law, w, flat, stride) };

@@ -22,6 +22,19 @@ pub fn available() -> bool {
     }
 }
 
+/// Whether this machine can run the kernels that also need fused multiply–add (the
+/// correspondence kernels, `simd_correspondence`).
+pub fn fma_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        available() && std::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// The family of node i as a kernel sees it.
 pub struct NodeBonds<'a> {
     pub i: usize,
@@ -44,6 +57,9 @@ pub struct NodeBonds<'a> {
     /// The family's history words: one per bond (the largest stretch) when `softening`, two
     /// per bond (the work record) when `work`.
     pub history: &'a mut [f64],
+    /// Current positions at the previous force evaluation, flat as `current` (empty unless
+    /// `with_previous`): the vector work record's displacement increments.
+    pub previous: &'a [f64],
 }
 
 impl<'a> NodeBonds<'a> {
@@ -69,7 +85,15 @@ impl<'a> NodeBonds<'a> {
             softening: None,
             work: None,
             history: &mut [],
+            previous: &[],
         }
+    }
+
+    /// The same family with the positions of the previous evaluation (a non-central model's
+    /// work record under `with_work`).
+    pub fn with_previous(mut self, previous: &'a [f64]) -> Self {
+        self.previous = previous;
+        self
     }
 
     /// The same family under a uniform softening law with its history (one word per bond).

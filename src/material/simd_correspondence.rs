@@ -1,14 +1,29 @@
-//! AVX2 bond loops of the correspondence model (3D, uniform grid, one critical stretch, one
-//! horizon), four bonds at a time: the pre-pass sums K = Σ ω ξ⊗ξ w and N = Σ ω η⊗ξ w
-//! (seed 004, Eqs. 6–7) and the force pass sums the other halves ω φ V (B_j ξ + C1_j η) and
-//! the own-half sums Σ s ξ, Σ s η (see `Correspondence` and `Material::FACTORED_OWN_HALF`).
-//! Same terms, failure rule and partial-volume factor as the generic loops (`super::simd`'s
-//! helpers); only the summation order differs (four lanes, then the tail), and it is fixed,
-//! so results stay bitwise identical for any thread count. `tests/suite/kernels.rs` compares them
-//! with the generic loop.
+//! AVX2 + FMA bond loops of the correspondence model (3D, uniform grid, one horizon), four
+//! bonds at a time: the pre-pass sums K = Σ ω ξ⊗ξ w and N = Σ ω η⊗ξ w (seed 004, Eqs. 6–7);
+//! the force pass under one critical stretch sums the other halves ω φ V (B_j ξ + C1_j η) and
+//! the own-half sums Σ s ξ, Σ s η (see `Correspondence` and `Material::FACTORED_OWN_HALF`);
+//! the force pass under one critical energy evaluates both halves of each bond,
+//! T = ω φ (B_i ξ + C1_i η) + ω φ (B_j ξ + C1_j η) (Eq. 8 with Eq. 14 through B = A − C1 H),
+//! records its work w += ½ (T_prev + T)·Δη in the bond's vector work record [w, T] (Foster,
+//! Silling & Chen 2011; seed 002 Eq. 6; seed 004 Eqs. 16–18, `damage::critical_energy`) and
+//! breaks the bonds with w ≥ w_c φ̄.
+//!
+//! Same terms, failure rules and partial-volume factor as the generic loops; the sums of
+//! products are fused multiply–adds (one rounding instead of two), and the order of a node's
+//! bond terms is four lanes, then the tail. Both are fixed, so results stay bitwise identical
+//! for any thread count; they differ from the generic loop by round-off (10⁻¹⁴ of the forces),
+//! and the quantities that decide failure (|y|, the stretch, the work update from the pair
+//! force) are computed in the generic loop's order. The kernels run only where the CPU has
+//! both AVX2 and FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the
+//! generic loop.
+//!
+//! Loads: a neighbour's (x, y, z), B and C1 are read as 128-bit pairs, two bonds per 256-bit
+//! register, and interleaved with in-lane unpacks (no lane-crossing shuffle, never a byte past
+//! a node's record).
 
 use super::simd::NodeBonds;
 use crate::bonds::partial_volume::UniformWeights;
+use crate::damage::critical_energy::UniformCriticalEnergy;
 
 /// What the kernels need of the model.
 #[derive(Debug, Clone, Copy)]
@@ -49,7 +64,7 @@ impl CorrespondenceLaw<'_> {
 /// the generic loop; returns (K, N, bonds broken).
 ///
 /// # Safety
-/// `simd::available()`; every neighbour index below `nb.current.len() / 3` and
+/// `simd::fma_available()`; every neighbour index below `nb.current.len() / 3` and
 /// `law.reference.len() / 3`.
 pub unsafe fn correspondence_sums(
     nb: &mut NodeBonds,
@@ -61,7 +76,7 @@ pub unsafe fn correspondence_sums(
         avx::sums(nb, law, w)
     }
     #[cfg(not(target_arch = "x86_64"))]
-    unreachable!("available() is false off x86-64")
+    unreachable!("fma_available() is false off x86-64")
 }
 
 /// Force pass of node i: (Σ other halves, Σ s ξ, Σ s η) with s = ω φ V over its intact bonds;
@@ -79,56 +94,126 @@ pub unsafe fn correspondence_force(
 ) -> ([f64; 3], [f64; 3], [f64; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
-        avx::force(nb, law, w, points, stride)
+        if law.control {
+            avx::force::<true>(nb, law, w, points, stride)
+        } else {
+            avx::force::<false>(nb, law, w, points, stride)
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    unreachable!("available() is false off x86-64")
+    unreachable!("fma_available() is false off x86-64")
+}
+
+/// Force pass of node i under a uniform critical-energy law: the force density of the bonds
+/// that hold and the bonds broken, each bond's work recorded in `nb.history` (four words per
+/// bond: w, T) from the previous positions `nb.previous`.
+///
+/// # Safety
+/// As for `correspondence_force`; `nb.history.len() == 4 * nb.neighbors.len()` and
+/// `nb.previous.len() == nb.current.len()`.
+pub unsafe fn correspondence_force_work(
+    nb: &mut NodeBonds,
+    law: &CorrespondenceLaw,
+    w: &UniformWeights,
+    energy: &UniformCriticalEnergy,
+    points: &[f64],
+    stride: usize,
+) -> ([f64; 3], u64) {
+    debug_assert_eq!(nb.history.len(), 4 * nb.neighbors.len());
+    debug_assert_eq!(nb.previous.len(), nb.current.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        if law.control {
+            avx::force_work::<true>(nb, law, w, energy, points, stride)
+        } else {
+            avx::force_work::<false>(nb, law, w, energy, points, stride)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("fma_available() is false off x86-64")
 }
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::*;
-    use crate::material::simd::avx::{bond_vectors, fail_and_keep, intact, own_position, phi, sum};
-    use crate::material::simd::tail;
+    use crate::damage::{DamageLaw, Work};
+    use crate::material::simd::avx::{intact, phi, sum};
+    use crate::material::simd::{length, tail};
+    use crate::state::{BROKEN, INTACT};
     use std::arch::x86_64::*;
 
-    /// Bond vectors of bonds b..b+4 in the flat positions `base` (reference or current),
-    /// less the node's own position `origin` (masked loads: never past a node).
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn rows(
-        nb: &NodeBonds,
-        base: *const f64,
-        b: usize,
-        origin: [__m256d; 3],
-    ) -> [__m256d; 3] {
-        let mask = _mm256_set_epi64x(0, -1, -1, -1);
-        let row =
-            |lane: usize| _mm256_maskload_pd(base.add(3 * nb.neighbors[b + lane] as usize), mask);
-        let (r0, r1, r2, r3) = (row(0), row(1), row(2), row(3));
-        let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-        let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+    /// The neighbours of bonds b..b+4.
+    #[inline(always)]
+    unsafe fn neighbours(nb: &NodeBonds, b: usize) -> [usize; 4] {
+        let p = nb.neighbors.as_ptr().add(b);
         [
-            _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t0, t2), origin[0]),
-            _mm256_sub_pd(_mm256_permute2f128_pd::<0x20>(t1, t3), origin[1]),
-            _mm256_sub_pd(_mm256_permute2f128_pd::<0x31>(t0, t2), origin[2]),
+            *p as usize,
+            *p.add(1) as usize,
+            *p.add(2) as usize,
+            *p.add(3) as usize,
         ]
     }
 
-    /// Reference bond vectors ξ of bonds b..b+4.
-    #[target_feature(enable = "avx2")]
+    /// Entries k and k + 1 of the records at p[0..4], one lane per record: 128-bit loads of
+    /// records 0 and 2 into one register, 1 and 3 into another, then in-lane unpacks.
+    #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn reference_vectors(
-        nb: &NodeBonds,
-        law: &CorrespondenceLaw,
-        b: usize,
-        xi: [__m256d; 3],
-    ) -> [__m256d; 3] {
-        rows(nb, law.reference.as_ptr(), b, xi)
+    unsafe fn pair(p: &[*const f64; 4], k: usize) -> (__m256d, __m256d) {
+        let even = _mm256_loadu2_m128d(p[2].add(k), p[0].add(k));
+        let odd = _mm256_loadu2_m128d(p[3].add(k), p[1].add(k));
+        (_mm256_unpacklo_pd(even, odd), _mm256_unpackhi_pd(even, odd))
     }
 
-    /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V) with μ = 1.
-    #[target_feature(enable = "avx2")]
+    /// (x, y, z) of the nodes `n` in the flat positions `base`, less `origin`, one lane per
+    /// node: (x, y) and (y, z) pairs, so that no load reads past a node.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn rows(base: *const f64, n: [usize; 4], origin: &[__m256d; 3]) -> [__m256d; 3] {
+        let p = n.map(|k| base.add(3 * k));
+        let (x, _) = pair(&p, 0);
+        let (y, z) = pair(&p, 1);
+        [
+            _mm256_sub_pd(x, origin[0]),
+            _mm256_sub_pd(y, origin[1]),
+            _mm256_sub_pd(z, origin[2]),
+        ]
+    }
+
+    /// Node i's (x, y, z) in the flat positions `base`, broadcast.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn own(base: *const f64, i: usize) -> [__m256d; 3] {
+        [
+            _mm256_set1_pd(*base.add(3 * i)),
+            _mm256_set1_pd(*base.add(3 * i + 1)),
+            _mm256_set1_pd(*base.add(3 * i + 2)),
+        ]
+    }
+
+    /// |y|² in the generic loop's order, (x² + y²) + z².
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn square(d: &[__m256d; 3]) -> __m256d {
+        _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1])),
+            _mm256_mul_pd(d[2], d[2]),
+        )
+    }
+
+    /// ω(|ξ|) φ(|ξ|) on four lanes: the generic ω · (φ μ) with μ = 1.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn omega_phi(law: &CorrespondenceLaw, w: &UniformWeights, l: __m256d) -> __m256d {
+        let p = phi(w, l);
+        if law.inverse_influence {
+            _mm256_mul_pd(_mm256_div_pd(_mm256_set1_pd(law.horizon), l), p)
+        } else {
+            p
+        }
+    }
+
+    /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V).
+    #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn weight(
         law: &CorrespondenceLaw,
@@ -145,98 +230,104 @@ mod avx {
         _mm256_and_pd(s, keep)
     }
 
-    /// The node's own reference position, broadcast.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn own_reference(law: &CorrespondenceLaw, i: usize) -> [__m256d; 3] {
-        [
-            _mm256_set1_pd(law.reference[3 * i]),
-            _mm256_set1_pd(law.reference[3 * i + 1]),
-            _mm256_set1_pd(law.reference[3 * i + 2]),
-        ]
-    }
-
-    /// Entries 0..18 (B then C1) of the point states of the neighbours of bonds b..b+4, one
-    /// lane per bond: contiguous loads per neighbour, transposed four by four (cheaper than
-    /// gathers).
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn neighbour_entries(
-        nb: &NodeBonds,
-        b: usize,
-        base: *const f64,
-        stride: usize,
-    ) -> [__m256d; 18] {
-        let p = [
-            base.add(nb.neighbors[b] as usize * stride),
-            base.add(nb.neighbors[b + 1] as usize * stride),
-            base.add(nb.neighbors[b + 2] as usize * stride),
-            base.add(nb.neighbors[b + 3] as usize * stride),
-        ];
-        let mut e = [_mm256_setzero_pd(); 18];
-        for q in 0..4 {
-            let (r0, r1) = (
-                _mm256_loadu_pd(p[0].add(4 * q)),
-                _mm256_loadu_pd(p[1].add(4 * q)),
-            );
-            let (r2, r3) = (
-                _mm256_loadu_pd(p[2].add(4 * q)),
-                _mm256_loadu_pd(p[3].add(4 * q)),
-            );
-            let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-            let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
-            e[4 * q] = _mm256_permute2f128_pd::<0x20>(t0, t2);
-            e[4 * q + 1] = _mm256_permute2f128_pd::<0x20>(t1, t3);
-            e[4 * q + 2] = _mm256_permute2f128_pd::<0x31>(t0, t2);
-            e[4 * q + 3] = _mm256_permute2f128_pd::<0x31>(t1, t3);
+    /// Breaks the bonds of the lanes in `bits` unless an end is no-fail; returns how many.
+    #[cold]
+    #[inline(never)]
+    fn break_lanes(nb: &mut NodeBonds, b: usize, bits: i32) -> u64 {
+        let mut broke = 0;
+        for lane in 0..4 {
+            let j = nb.neighbors[b + lane] as usize;
+            if bits & (1 << lane) != 0 && !(nb.no_fail[nb.i] || nb.no_fail[j]) {
+                nb.status[b + lane] = BROKEN;
+                broke += 1;
+            }
         }
-        let last = |k: usize| _mm_loadu_pd(p[k].add(16));
-        let (a, c) = (
-            _mm256_set_m128d(last(2), last(0)),
-            _mm256_set_m128d(last(3), last(1)),
-        );
-        e[16] = _mm256_unpacklo_pd(a, c);
-        e[17] = _mm256_unpackhi_pd(a, c);
-        e
+        broke
     }
 
-    #[target_feature(enable = "avx2")]
+    /// The lanes of bonds b..b+4 that carry force: intact after the critical stretch (if
+    /// this pass decides it: |y| − |ξ| > s0 |ξ|, as the generic loop) and of non-zero length.
+    /// A macro, so that it is always inlined into the kernels (as a function it was not).
+    macro_rules! keep_lanes {
+        ($nb:expr, $b:expr, $d:expr, $l:expr, $broke:expr) => {{
+            let sq = square($d);
+            if let Some(s0) = $nb.s0 {
+                let len = _mm256_sqrt_pd(sq);
+                let over = _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(
+                        _mm256_sub_pd(len, $l),
+                        _mm256_mul_pd(_mm256_set1_pd(s0), $l),
+                    ),
+                    intact($nb.status, $b),
+                );
+                let bits = _mm256_movemask_pd(over);
+                if bits != 0 {
+                    $broke += break_lanes($nb, $b, bits);
+                }
+            }
+            // |y| > 0 exactly when |y|² > 0.
+            _mm256_and_pd(
+                intact($nb.status, $b),
+                _mm256_cmp_pd::<_CMP_GT_OQ>(sq, _mm256_setzero_pd()),
+            )
+        }};
+    }
+
+    #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn sums(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
     ) -> ([f64; 9], [f64; 9], u64) {
         let i = nb.i;
-        let yi = own_position(nb);
-        let xi_i = own_reference(law, i);
+        let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
+        let yi = own(current, i);
+        let xi_i = own(reference, i);
         let zero = _mm256_setzero_pd();
-        // Column-major: entry (r, c) at 3c + r, as `SMatrix`.
-        let mut k = [zero; 9];
+        // K's lower triangle (K is symmetric): (0,0), (1,0), (2,0), (1,1), (2,1), (2,2).
+        let mut k = [zero; 6];
+        // N column-major: entry (r, c) at 3c + r, as `SMatrix`.
         let mut n = [zero; 9];
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
-            let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+            let j = neighbours(nb, b);
+            let d = rows(current, j, &yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            let keep = fail_and_keep(nb, b, len, l, &mut broke);
+            let keep = keep_lanes!(nb, b, &d, l, broke);
             let s = weight(law, w, l, keep);
-            let xi = reference_vectors(nb, law, b, xi_i);
-            let y = [dx, dy, dz];
-            // K += (ξ s) ξᵀ, N += (η s) ξᵀ, as the generic `accumulate`.
+            let xi = rows(reference, j, &xi_i);
+            // K += (ξ s) ξᵀ, N += (η s) ξᵀ (the generic `accumulate`, fused).
+            let xs = [
+                _mm256_mul_pd(xi[0], s),
+                _mm256_mul_pd(xi[1], s),
+                _mm256_mul_pd(xi[2], s),
+            ];
+            k[0] = _mm256_fmadd_pd(xs[0], xi[0], k[0]);
+            k[1] = _mm256_fmadd_pd(xs[1], xi[0], k[1]);
+            k[2] = _mm256_fmadd_pd(xs[2], xi[0], k[2]);
+            k[3] = _mm256_fmadd_pd(xs[1], xi[1], k[3]);
+            k[4] = _mm256_fmadd_pd(xs[2], xi[1], k[4]);
+            k[5] = _mm256_fmadd_pd(xs[2], xi[2], k[5]);
             for r in 0..3 {
-                let xs = _mm256_mul_pd(xi[r], s);
-                let es = _mm256_mul_pd(_mm256_sub_pd(y[r], xi[r]), s);
+                let es = _mm256_mul_pd(_mm256_sub_pd(d[r], xi[r]), s);
                 for c in 0..3 {
-                    k[3 * c + r] = _mm256_add_pd(k[3 * c + r], _mm256_mul_pd(xs, xi[c]));
-                    n[3 * c + r] = _mm256_add_pd(n[3 * c + r], _mm256_mul_pd(es, xi[c]));
+                    n[3 * c + r] = _mm256_fmadd_pd(es, xi[c], n[3 * c + r]);
                 }
             }
             b += 4;
         }
-        let mut ks = [0.0; 9];
+        let (k00, k10, k20, k11, k21, k22) = (
+            sum(k[0]),
+            sum(k[1]),
+            sum(k[2]),
+            sum(k[3]),
+            sum(k[4]),
+            sum(k[5]),
+        );
+        let mut ks = [k00, k10, k20, k10, k11, k21, k20, k21, k22];
         let mut ns = [0.0; 9];
         for e in 0..9 {
-            ks[e] = sum(k[e]);
             ns[e] = sum(n[e]);
         }
         broke += tail(nb, b, |j, l, d, _| {
@@ -253,8 +344,8 @@ mod avx {
         (ks, ns, broke)
     }
 
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn force(
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn force<const CONTROL: bool>(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
@@ -262,64 +353,59 @@ mod avx {
         stride: usize,
     ) -> ([f64; 3], [f64; 3], [f64; 3]) {
         let i = nb.i;
-        let yi = own_position(nb);
-        let xi_i = own_reference(law, i);
+        let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
+        let yi = own(current, i);
+        let xi_i = own(reference, i);
         let zero = _mm256_setzero_pd();
-        let (mut other, mut sxi, mut seta) = ([zero; 3], [zero; 3], [zero; 3]);
+        // The other halves' B and C1 terms in separate sums (shorter dependency chains).
+        let (mut ob, mut oc) = ([zero; 3], [zero; 3]);
+        let (mut sxi, mut seta) = ([zero; 3], [zero; 3]);
         let mut broke = 0;
         let mut b = 0;
         let base = points.as_ptr();
         while b + 4 <= nb.neighbors.len() {
+            let j = neighbours(nb, b);
+            // This pass decides no failure (`nb.s0` is `None`).
+            let d = rows(current, j, &yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            // This pass decides no failure: only |y| > 0 matters, and |y|² > 0 says the same
-            // without a square root.
-            // (`fail_and_keep` without a critical stretch: intact and of non-zero length.)
-            let [dx, dy, dz] = rows(nb, nb.current.as_ptr(), b, yi);
-            let keep = if nb.s0.is_none() {
-                let square = _mm256_add_pd(
-                    _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
-                    _mm256_mul_pd(dz, dz),
-                );
-                _mm256_and_pd(
-                    intact(nb.status, b),
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(square, _mm256_setzero_pd()),
-                )
-            } else {
-                fail_and_keep(nb, b, bond_vectors(nb, b, yi)[3], l, &mut broke)
-            };
+            let keep = keep_lanes!(nb, b, &d, l, broke);
             let s = weight(law, w, l, keep);
-            let xi = reference_vectors(nb, law, b, xi_i);
-            let eta = [
-                _mm256_sub_pd(dx, xi[0]),
-                _mm256_sub_pd(dy, xi[1]),
-                _mm256_sub_pd(dz, xi[2]),
+            let xi = rows(reference, j, &xi_i);
+            let xs = [
+                _mm256_mul_pd(xi[0], s),
+                _mm256_mul_pd(xi[1], s),
+                _mm256_mul_pd(xi[2], s),
+            ];
+            let es = [
+                _mm256_mul_pd(_mm256_sub_pd(d[0], xi[0]), s),
+                _mm256_mul_pd(_mm256_sub_pd(d[1], xi[1]), s),
+                _mm256_mul_pd(_mm256_sub_pd(d[2], xi[2]), s),
             ];
             for a in 0..3 {
-                sxi[a] = _mm256_add_pd(sxi[a], _mm256_mul_pd(xi[a], s));
-                seta[a] = _mm256_add_pd(seta[a], _mm256_mul_pd(eta[a], s));
+                sxi[a] = _mm256_add_pd(sxi[a], xs[a]);
+                seta[a] = _mm256_add_pd(seta[a], es[a]);
             }
-            // The neighbours' B and C1 (entries 0..18 of their point states), lane-wise.
-            let e = neighbour_entries(nb, b, base, stride);
-            // B_j ξ (+ C1_j η), row by row, in the generic matrix–vector order.
-            let mut t = [zero; 3];
-            for (r, t) in t.iter_mut().enumerate() {
-                let mut v = _mm256_mul_pd(e[r], xi[0]);
-                v = _mm256_add_pd(v, _mm256_mul_pd(e[3 + r], xi[1]));
-                v = _mm256_add_pd(v, _mm256_mul_pd(e[6 + r], xi[2]));
-                if law.control {
-                    let mut u = _mm256_mul_pd(e[9 + r], eta[0]);
-                    u = _mm256_add_pd(u, _mm256_mul_pd(e[12 + r], eta[1]));
-                    u = _mm256_add_pd(u, _mm256_mul_pd(e[15 + r], eta[2]));
-                    v = _mm256_add_pd(v, u);
+            // The neighbours' B and C1 (entries 0..18 of their point states), two entries
+            // at a time: Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
+            let p = j.map(|k| base.add(k * stride));
+            let pairs = if CONTROL { 9 } else { 5 };
+            for q in 0..pairs {
+                let (e0, e1) = pair(&p, 2 * q);
+                for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
+                    let (r, c) = (m % 3, (m % 9) / 3);
+                    if m < 9 {
+                        ob[r] = _mm256_fmadd_pd(e, xs[c], ob[r]);
+                    } else if CONTROL {
+                        oc[r] = _mm256_fmadd_pd(e, es[c], oc[r]);
+                    }
                 }
-                *t = v;
-            }
-            for a in 0..3 {
-                other[a] = _mm256_add_pd(other[a], _mm256_mul_pd(t[a], s));
             }
             b += 4;
         }
-        let mut f = [sum(other[0]), sum(other[1]), sum(other[2])];
+        let mut f = [0.0; 3];
+        for a in 0..3 {
+            f[a] = sum(_mm256_add_pd(ob[a], oc[a]));
+        }
         let mut sx = [sum(sxi[0]), sum(sxi[1]), sum(sxi[2])];
         let mut se = [sum(seta[0]), sum(seta[1]), sum(seta[2])];
         broke += tail(nb, b, |j, l, d, _| {
@@ -331,7 +417,7 @@ mod avx {
                 sx[r] += xi[r] * s;
                 se[r] += eta[r] * s;
                 let mut v = p[r] * xi[0] + p[3 + r] * xi[1] + p[6 + r] * xi[2];
-                if law.control {
+                if CONTROL {
                     v += p[9 + r] * eta[0] + p[12 + r] * eta[1] + p[15 + r] * eta[2];
                 }
                 f[r] += v * s;
@@ -342,5 +428,237 @@ mod avx {
             "the correspondence force pass does not decide failure"
         );
         (f, sx, se)
+    }
+
+    /// B ξ + C1 η of one bond from the 18 entries `m` (B then C1, column-major), in the
+    /// generic `linear_half`'s order: (B ξ) + (C1 η), each row ((m₀ξ₀ + m₁ξ₁) + m₂ξ₂).
+    #[inline(always)]
+    fn linear_half<const CONTROL: bool>(m: &[f64], xi: &[f64; 3], eta: &[f64; 3]) -> [f64; 3] {
+        let mut v = [0.0; 3];
+        for r in 0..3 {
+            v[r] = m[r] * xi[0] + m[3 + r] * xi[1] + m[6 + r] * xi[2];
+            if CONTROL {
+                v[r] += m[9 + r] * eta[0] + m[12 + r] * eta[1] + m[15 + r] * eta[2];
+            }
+        }
+        v
+    }
+
+    /// Lane k of v.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn lanes(v: __m256d) -> [f64; 4] {
+        let mut a = [0.0; 4];
+        _mm256_storeu_pd(a.as_mut_ptr(), v);
+        a
+    }
+
+    /// The lanes of `bits` whose bond is in tension (|y| > |ξ|, |y| in the generic order).
+    #[cold]
+    #[inline(never)]
+    fn in_tension(bits: i32, d: [[f64; 4]; 3], l: [f64; 4]) -> i32 {
+        let mut out = 0;
+        for lane in 0..4 {
+            let y = [d[0][lane], d[1][lane], d[2][lane]];
+            if bits & (1 << lane) != 0 && length(&y) - l[lane] > 0.0 {
+                out |= 1 << lane;
+            }
+        }
+        out
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn force_work<const CONTROL: bool>(
+        nb: &mut NodeBonds,
+        law: &CorrespondenceLaw,
+        w: &UniformWeights,
+        energy: &UniformCriticalEnergy,
+        points: &[f64],
+        stride: usize,
+    ) -> ([f64; 3], u64) {
+        let i = nb.i;
+        let (current, reference, previous) = (
+            nb.current.as_ptr(),
+            law.reference.as_ptr(),
+            nb.previous.as_ptr(),
+        );
+        let (yi, xi_i, pi) = (own(current, i), own(reference, i), own(previous, i));
+        let base = points.as_ptr();
+        // Node i's B and C1, broadcast.
+        let mine: [__m256d; 18] =
+            std::array::from_fn(|m| _mm256_set1_pd(*base.add(i * stride + m)));
+        let zero = _mm256_setzero_pd();
+        let (half, wc, volume) = (
+            _mm256_set1_pd(0.5),
+            _mm256_set1_pd(energy.wc),
+            _mm256_set1_pd(w.node.volume),
+        );
+        let mut acc = [zero; 3];
+        let mut broke = 0;
+        let mut b = 0;
+        while b + 4 <= nb.neighbors.len() {
+            let j = neighbours(nb, b);
+            let d = rows(current, j, &yi);
+            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            // Intact and of non-zero length: the bonds the generic loop records work for.
+            let mut keep = _mm256_and_pd(
+                intact(nb.status, b),
+                _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
+            );
+            let xi = rows(reference, j, &xi_i);
+            let eta = [
+                _mm256_sub_pd(d[0], xi[0]),
+                _mm256_sub_pd(d[1], xi[1]),
+                _mm256_sub_pd(d[2], xi[2]),
+            ];
+            // Both halves' B ξ + C1 η: node i's from its broadcast entries, the neighbours'
+            // two entries at a time.
+            let mut t = [zero; 3];
+            for r in 0..3 {
+                let mut v = _mm256_mul_pd(mine[r], xi[0]);
+                v = _mm256_fmadd_pd(mine[3 + r], xi[1], v);
+                v = _mm256_fmadd_pd(mine[6 + r], xi[2], v);
+                if CONTROL {
+                    v = _mm256_fmadd_pd(mine[9 + r], eta[0], v);
+                    v = _mm256_fmadd_pd(mine[12 + r], eta[1], v);
+                    v = _mm256_fmadd_pd(mine[15 + r], eta[2], v);
+                }
+                t[r] = v;
+            }
+            let p = j.map(|k| base.add(k * stride));
+            let pairs = if CONTROL { 9 } else { 5 };
+            for q in 0..pairs {
+                let (e0, e1) = pair(&p, 2 * q);
+                for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
+                    let (r, c) = (m % 3, (m % 9) / 3);
+                    if m < 9 {
+                        t[r] = _mm256_fmadd_pd(e, xi[c], t[r]);
+                    } else if CONTROL {
+                        t[r] = _mm256_fmadd_pd(e, eta[c], t[r]);
+                    }
+                }
+            }
+            // The pair force T = ω φ (both halves), the generic `pair_force` without V.
+            let wp = omega_phi(law, w, l);
+            let force = [
+                _mm256_mul_pd(t[0], wp),
+                _mm256_mul_pd(t[1], wp),
+                _mm256_mul_pd(t[2], wp),
+            ];
+            // Δη = y − (y_j − y_i at the previous evaluation).
+            let dp = rows(previous, j, &pi);
+            let step = [
+                _mm256_sub_pd(d[0], dp[0]),
+                _mm256_sub_pd(d[1], dp[1]),
+                _mm256_sub_pd(d[2], dp[2]),
+            ];
+            // The records [w, T] of the four bonds, as lanes; the records four groups on are
+            // prefetched (the stream of 64 bytes per bond read and written each evaluation
+            // otherwise stalls the loop on memory; a prefetch past the end is harmless).
+            let hp = nb.history.as_mut_ptr().add(4 * b);
+            _mm_prefetch::<_MM_HINT_T0>(hp.wrapping_add(64) as *const i8);
+            _mm_prefetch::<_MM_HINT_T0>(hp.wrapping_add(72) as *const i8);
+            let rec = [hp as *const f64, hp.add(4), hp.add(8), hp.add(12)];
+            let (w_old, f0) = pair(&rec, 0);
+            let (f1, f2) = pair(&rec, 2);
+            // `accumulate_work`: w += ½ ((T_prev + T)·Δη), in its order.
+            let dot = _mm256_add_pd(
+                _mm256_add_pd(
+                    _mm256_mul_pd(_mm256_add_pd(f0, force[0]), step[0]),
+                    _mm256_mul_pd(_mm256_add_pd(f1, force[1]), step[1]),
+                ),
+                _mm256_mul_pd(_mm256_add_pd(f2, force[2]), step[2]),
+            );
+            let w_new = _mm256_add_pd(w_old, _mm256_mul_pd(half, dot));
+            // Lanes outside `keep` keep their record.
+            let ws = _mm256_blendv_pd(w_old, w_new, keep);
+            let fs = [
+                _mm256_blendv_pd(f0, force[0], keep),
+                _mm256_blendv_pd(f1, force[1], keep),
+                _mm256_blendv_pd(f2, force[2], keep),
+            ];
+            let (lo_a, hi_a) = (_mm256_unpacklo_pd(ws, fs[0]), _mm256_unpackhi_pd(ws, fs[0]));
+            let (lo_b, hi_b) = (
+                _mm256_unpacklo_pd(fs[1], fs[2]),
+                _mm256_unpackhi_pd(fs[1], fs[2]),
+            );
+            _mm256_storeu_pd(hp, _mm256_permute2f128_pd::<0x20>(lo_a, lo_b));
+            _mm256_storeu_pd(hp.add(4), _mm256_permute2f128_pd::<0x20>(hi_a, hi_b));
+            _mm256_storeu_pd(hp.add(8), _mm256_permute2f128_pd::<0x31>(lo_a, lo_b));
+            _mm256_storeu_pd(hp.add(12), _mm256_permute2f128_pd::<0x31>(hi_a, hi_b));
+            // `fails_on_work`: w ≥ w_c φ̄, φ̄ = ½(φ + φ), and in tension if `tension_only`.
+            let p = phi(w, l);
+            let over = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(
+                    w_new,
+                    _mm256_mul_pd(wc, _mm256_mul_pd(half, _mm256_add_pd(p, p))),
+                ),
+                keep,
+            );
+            let mut bits = _mm256_movemask_pd(over);
+            if bits != 0 {
+                if energy.tension_only {
+                    bits = in_tension(bits, d.map(|v| lanes(v)), lanes(l));
+                }
+                if bits != 0 {
+                    broke += break_lanes(nb, b, bits);
+                    keep = _mm256_and_pd(keep, intact(nb.status, b));
+                }
+            }
+            // The generic loop's T V over the bonds that hold.
+            for a in 0..3 {
+                acc[a] = _mm256_fmadd_pd(_mm256_and_pd(force[a], keep), volume, acc[a]);
+            }
+            b += 4;
+        }
+        let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
+        let pts = |k: usize| &points[k * stride..k * stride + 18];
+        for b in b..nb.neighbors.len() {
+            if nb.status[b] != INTACT {
+                continue;
+            }
+            let j = nb.neighbors[b] as usize;
+            let at = |v: &[f64], k: usize| [v[3 * k], v[3 * k + 1], v[3 * k + 2]];
+            let (yj, yi, pj, pi) = (
+                at(nb.current, j),
+                at(nb.current, i),
+                at(nb.previous, j),
+                at(nb.previous, i),
+            );
+            let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
+            let len = length(&d);
+            if len <= 0.0 {
+                continue;
+            }
+            // The generic loop's steps for one bond: T = ω φ (B_i ξ + C1_i η) + ω φ (B_j ξ +
+            // C1_j η), its work, failure, T V.
+            let l = nb.ref_lengths[b];
+            let (om, p) = (law.omega(l), w.phi(l));
+            let xi = law.xi(i, j);
+            let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
+            let (own_half, other) = (
+                linear_half::<CONTROL>(pts(i), &xi, &eta),
+                linear_half::<CONTROL>(pts(j), &xi, &eta),
+            );
+            let force: [f64; 3] = std::array::from_fn(|a| own_half[a] * om * p + other[a] * om * p);
+            let step: [f64; 3] = std::array::from_fn(|a| d[a] - (pj[a] - pi[a]));
+            broke += energy.on_work(
+                i,
+                j,
+                Work::Vector { force, step },
+                len - l,
+                0.5 * (p + p),
+                nb.no_fail[i] || nb.no_fail[j],
+                &mut nb.history[4 * b..4 * b + 4],
+                &mut nb.status[b],
+            );
+            if nb.status[b] == BROKEN {
+                continue;
+            }
+            for a in 0..3 {
+                f[a] += force[a] * w.node.volume;
+            }
+        }
+        (f, broke)
     }
 }

@@ -377,13 +377,18 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         };
         // The AVX2 kernels, where the model has them: uniform grid, in 3D one critical stretch,
         // one softening law or one critical energy (with a central model's two-word work
-        // record), in 2D one critical energy, x86-64 with AVX2, and neighbour indices known to
-        // be in bounds (the kernels' gathers rely on it).
+        // record, or in 3D a non-central model's four-word one), in 2D one critical energy,
+        // x86-64 with AVX2, and neighbour indices known to be in bounds (the kernels' gathers
+        // rely on it).
         let s0 = damage.uniform_critical_stretch();
         let softening = damage.uniform_softening().filter(|_| hw == 1);
-        let work = damage
-            .uniform_critical_energy()
-            .filter(|_| M::CENTRAL && hw == 2);
+        let work = damage.uniform_critical_energy().filter(|_| {
+            if M::CENTRAL {
+                hw == 2
+            } else {
+                D == 3 && hw == 4
+            }
+        });
         let vector = if ((D == 3 && (s0.is_some() || softening.is_some())) || work.is_some())
             && self.vector_kernels
             && self.neighbors_in_bounds
@@ -471,6 +476,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
         let (material, points) = (&self.material, &self.points);
         let previous = &state.previous;
+        // SAFETY: as for `flat` (empty unless a non-central model records work).
+        let previous_flat: &[f64] = unsafe {
+            std::slice::from_raw_parts(previous.as_ptr() as *const f64, previous.len() * D)
+        };
         let sweep = Sweep {
             current: &state.current,
             positions: &body.positions,
@@ -503,7 +512,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         if let Some(law) = softening {
                             nb = nb.with_softening(law, history);
                         } else if let Some(law) = work {
-                            nb = nb.with_work(law, history);
+                            nb = nb.with_work(law, history).with_previous(previous_flat);
                         }
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
                         if let Some((f, nb_broken)) =
