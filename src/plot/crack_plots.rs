@@ -1,7 +1,9 @@
 //! PNG plots of a run's crack files (written with `[analysis.crack_tip]`), drawn with the
 //! history plots: the crack advance against time per branch (`crack_tip.png`), the crack
 //! speed over the Rayleigh speed (`crack_speed.png`) and the dissipation rate Γ/G0 (or Γ)
-//! against the crack length (`dissipation_rate.png`). A missing file draws nothing.
+//! against the crack length (`dissipation_rate.png`); with `[analysis.crack_surface]` (3D) the
+//! crack area against time (`crack_area.png`) and Γ/G0 (or Γ) against the crack area
+//! (`dissipation_rate_area.png`). A missing file draws nothing.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -158,6 +160,35 @@ pub fn write_crack_plots(run_dir: &Path, dir: &Path) -> Result<Vec<PathBuf>, Plo
                 "dissipation_rate.png",
                 "Dissipation rate Γ = dE_diss/dā",
                 "crack length a − a0 (m)",
+                label,
+                vec![("Γ".to_string(), column)],
+            )?;
+        }
+    }
+    if let Some(areas) = TextTable::read(&run_dir.join("crack_area.csv"))? {
+        if let (Some(t), Some(a)) = (areas.index("time"), areas.index("crack_area")) {
+            plot(
+                "crack_area.png",
+                "Crack area",
+                "time (s)",
+                "crack area (m²)",
+                vec![("A".to_string(), areas.pairs(t, a))],
+            )?;
+            let over_g0 = areas.index("rate_over_g0").map(|k| areas.pairs(a, k));
+            let (column, label) = match over_g0 {
+                Some(p) if !p.is_empty() => (p, "Γ / G0"),
+                _ => (
+                    areas
+                        .index("dissipation_rate")
+                        .map(|k| areas.pairs(a, k))
+                        .unwrap_or_default(),
+                    "Γ (J/m²)",
+                ),
+            };
+            plot(
+                "dissipation_rate_area.png",
+                "Dissipation rate Γ = dE_diss/dA",
+                "crack area A (m²)",
                 label,
                 vec![("Γ".to_string(), column)],
             )?;

@@ -507,3 +507,18 @@ fn a_run_continued_from_a_checkpoint_writes_the_same_surface_files() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_crack_area_and_its_dissipation_rate_are_plotted() {
+    let (dir, _) = two_thread_run();
+    let plots = out_dir("plots");
+    std::fs::create_dir_all(&plots).unwrap();
+    let written = peridyn::plot::crack_plots::write_crack_plots(dir, &plots).unwrap();
+    for name in ["crack_area.png", "dissipation_rate_area.png"] {
+        let file = plots.join(name);
+        assert!(written.contains(&file), "{name} in {written:?}");
+        let header = std::fs::read(&file).unwrap();
+        assert_eq!(&header[1..4], b"PNG", "{name} is a PNG");
+    }
+    std::fs::remove_dir_all(&plots).ok();
+}
