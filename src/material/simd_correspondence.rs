@@ -137,7 +137,7 @@ pub unsafe fn correspondence_force_work(
 mod avx {
     use super::*;
     use crate::damage::{DamageLaw, Work};
-    use crate::material::simd::avx::{intact, phi, sum};
+    use crate::material::simd::avx::{intact, phi, prefetch, sum};
     use crate::material::simd::{length, tail};
     use crate::state::{BROKEN, INTACT};
     use std::arch::x86_64::*;
@@ -293,6 +293,7 @@ mod avx {
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
             let d = rows(current, j, &yi);
+            prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = keep_lanes!(nb, b, &d, l, broke);
             let s = weight(law, w, l, keep);
@@ -367,6 +368,7 @@ mod avx {
             let j = neighbours(nb, b);
             // This pass decides no failure (`nb.s0` is `None`).
             let d = rows(current, j, &yi);
+            prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = keep_lanes!(nb, b, &d, l, broke);
             let s = weight(law, w, l, keep);
@@ -499,6 +501,7 @@ mod avx {
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
             let d = rows(current, j, &yi);
+            prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             // Intact and of non-zero length: the bonds the generic loop records work for.
             let mut keep = _mm256_and_pd(
@@ -556,8 +559,8 @@ mod avx {
             // prefetched (the stream of 64 bytes per bond read and written each evaluation
             // otherwise stalls the loop on memory; a prefetch past the end is harmless).
             let hp = nb.history.as_mut_ptr().add(4 * b);
-            _mm_prefetch::<_MM_HINT_T0>(hp.wrapping_add(64) as *const i8);
-            _mm_prefetch::<_MM_HINT_T0>(hp.wrapping_add(72) as *const i8);
+            prefetch::<512, _>(hp);
+            prefetch::<576, _>(hp);
             let rec = [hp as *const f64, hp.add(4), hp.add(8), hp.add(12)];
             let (w_old, f0) = pair(&rec, 0);
             let (f1, f2) = pair(&rec, 2);

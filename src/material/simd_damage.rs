@@ -6,7 +6,9 @@
 //! `tests/suite/kernels.rs` checks it against the generic loop.
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::avx::{add_force, bond_vectors, intact, own_position, phi, pmb_per_length, sum};
+use super::simd::avx::{
+    add_force, bond_vectors, intact, own_position, phi, pmb_per_length, prefetch, sum,
+};
 use super::simd::{length, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::damage::softening::UniformSoftening;
@@ -73,8 +75,10 @@ pub unsafe fn pmb_force_softening(
     let mut b = 0;
     while b + 4 <= nb.neighbors.len() {
         let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+        prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
         let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
         let live = intact(nb.status, b);
+        prefetch::<512, _>(nb.history.as_ptr().add(b));
         let h = _mm256_loadu_pd(nb.history.as_ptr().add(b));
         // A new largest stretch, `Stretch::exceeds` without a division: |y| − |ξ| > s_max |ξ|;
         // then s = (|y| − |ξ|)/|ξ| (seed 001, Eq. 3), as `on_stretch` records it.

@@ -12,7 +12,9 @@
 //! in 3D (`simd::lps_dilatation_sum`, with no failure decided), the generic loop in 2D.
 
 #[cfg(target_arch = "x86_64")]
-use super::simd::avx::{bond_vectors, intact, lps_state, omega, phi, pmb_per_length, sum};
+use super::simd::avx::{
+    bond_vectors, intact, lps_state, omega, phi, pmb_per_length, prefetch, sum,
+};
 use super::simd::{LpsLaw, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::damage::critical_energy::UniformCriticalEnergy;
@@ -216,6 +218,7 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
         } else {
             bond_vectors_2d(nb, b, yi_lanes)
         };
+        prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
         let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
         // Intact and of non-zero length: the bonds the generic loop records work for.
         let mut keep = _mm256_and_pd(intact(nb.status, b), _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero));
@@ -223,6 +226,8 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
         let per_length = pair.lanes(nb, b, l, len, p);
         // The work record [w, (f, e)] of the four bonds, as lanes.
         let hp = nb.history.as_mut_ptr().add(2 * b);
+        prefetch::<2048, _>(hp);
+        prefetch::<512, _>(nb.neighbors.as_ptr().add(b));
         let (h0, h1) = (_mm256_loadu_pd(hp), _mm256_loadu_pd(hp.add(4)));
         let w_old = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(h0, h1));
         let packed = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(h0, h1));
