@@ -26,7 +26,9 @@ use crate::solver::{
     AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation, StepError,
 };
 use serde::Serialize;
+use std::cell::RefCell;
 use std::path::PathBuf;
+use std::rc::Rc;
 use std::time::Instant;
 
 /// Why a run stopped early.
@@ -642,44 +644,36 @@ fn run_model<const D: usize, M: Material<D>>(
             None => record,
         }));
     }
-    let crack = match deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
-        Some(tip) => {
-            let mut observer = crack_tips(deck, tip, &sim, &report, out);
-            if resume.is_some() {
-                observer = observer.resume(step, &sim.body.positions)?;
-            }
-            let handle = observer.report();
-            observers.push(Box::new(observer));
-            Some(handle)
-        }
+    let restarting = resume.is_some();
+    let analysis = deck.analysis.as_ref();
+    let crack = match analysis.and_then(|a| a.crack_tip.as_ref()) {
+        Some(tip) => Some(attach_analysis(
+            &mut observers,
+            crack_tips(deck, tip, &sim, &report, out),
+            restarting,
+            |o| o.resume(step, &sim.body.positions),
+            CrackTips::report,
+        )?),
         None => None,
     };
-    let path = match deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
-        Some(p) if D == 2 => {
-            let mut observer = crack_path(p, &sim.body, out);
-            if resume.is_some() {
-                observer = observer.resume(step)?;
-            }
-            let handle = observer.report();
-            observers.push(Box::new(observer));
-            Some(handle)
-        }
+    let path = match analysis.and_then(|a| a.crack_path.as_ref()) {
+        Some(p) if D == 2 => Some(attach_analysis(
+            &mut observers,
+            crack_path(p, &sim.body, out),
+            restarting,
+            |o| o.resume(step),
+            CrackPath::report,
+        )?),
         _ => None,
     };
-    let surface = match deck
-        .analysis
-        .as_ref()
-        .and_then(|a| a.crack_surface.as_ref())
-    {
-        Some(a) if D == 3 => {
-            let mut observer = crack_surface(deck, a, &sim, out);
-            if resume.is_some() {
-                observer = observer.resume(step)?;
-            }
-            let handle = observer.report();
-            observers.push(Box::new(observer));
-            Some(handle)
-        }
+    let surface = match analysis.and_then(|a| a.crack_surface.as_ref()) {
+        Some(a) if D == 3 => Some(attach_analysis(
+            &mut observers,
+            crack_surface(deck, a, &sim, out),
+            restarting,
+            |o| o.resume(step),
+            CrackSurface::report,
+        )?),
         _ => None,
     };
 
@@ -805,6 +799,25 @@ fn opening_nodes<const D: usize>(
         .collect()
 }
 
+/// Adds an analysis observer to the run, first continuing its files from the checkpoint's
+/// step when `restarting`, and returns the handle its end-of-run report is read from.
+fn attach_analysis<const D: usize, O: Observer<D> + 'static, R>(
+    observers: &mut Vec<Box<dyn Observer<D>>>,
+    observer: O,
+    restarting: bool,
+    resume: impl FnOnce(O) -> std::io::Result<O>,
+    report: impl Fn(&O) -> Rc<RefCell<Option<R>>>,
+) -> std::io::Result<Rc<RefCell<Option<R>>>> {
+    let observer = if restarting {
+        resume(observer)?
+    } else {
+        observer
+    };
+    let handle = report(&observer);
+    observers.push(Box::new(observer));
+    Ok(handle)
+}
+
 /// The crack-tip observer of `[analysis.crack_tip]`. The Rayleigh speed is that of the model's
 /// E and ν (`ModelReport`, the first material's) and node 0's density, in plane stress, plane
 /// strain or 3D as the deck says. In 3D the front is the damaged nodes within one grid spacing
@@ -895,7 +908,7 @@ fn crack_surface<const D: usize, M: Material<D>>(
         interval: a.interval,
         g0: deck.material.fracture_energy(),
     };
-    CrackSurface::new(out, &sim.body, &sim.bonds, &sim.engine.quad, settings)
+    CrackSurface::new(out, &sim.body, settings)
 }
 
 /// Runs the deck's stages one after the other: each starts from the state the one before

@@ -5,9 +5,8 @@
 //! grid normal to `axis` (`analysis::crack_surface`). Files, written atomically at every
 //! flush and at the end: `crack_area.csv`, `crack_surface.csv`, `crack_surface.vtu`.
 //!
-//! The observer keeps its own copy of the families' topology (offsets and neighbour indices,
-//! 4 B per directed bond plus 8 B per node) and of the quadrature weights, because observers
-//! see the state but not the bonds. Its scans run sequentially in node and bond order, so the
+//! The bonds and their quadrature weights are read from the step's view (no copy). Its scans
+//! run sequentially in node and bond order, so the
 //! files are the same for any number of threads. A restart reads the area history back from
 //! `crack_area.csv`; the surface is recomputed from the state at the next sample.
 
@@ -17,7 +16,7 @@ use super::resume::{cannot_continue, rows_up_to};
 use crate::analysis::{crack_area, crack_surface, in_plane_axes, BrokenHalf, SurfaceCell};
 use crate::atomic_file::write_atomic;
 use crate::body::Body;
-use crate::bonds::{Bonds, Quadrature};
+use crate::bonds::Quadrature;
 use crate::state::OWN_BROKEN;
 use std::cell::RefCell;
 use std::fmt::Write as _;
@@ -117,9 +116,6 @@ pub struct CrackSurface {
     settings: SurfaceSettings,
     every: Every,
     dir: PathBuf,
-    offsets: Vec<usize>,
-    neighbors: Vec<u32>,
-    quad: Quadrature,
     thickness: f64,
     samples: Vec<Sample>,
     cells: Vec<SurfaceCell>,
@@ -127,21 +123,12 @@ pub struct CrackSurface {
 }
 
 impl CrackSurface {
-    /// Writes into `dir`; keeps a copy of the bonds' topology and quadrature weights.
-    pub fn new<const D: usize>(
-        dir: &Path,
-        body: &Body<D>,
-        bonds: &Bonds,
-        quad: &Quadrature,
-        settings: SurfaceSettings,
-    ) -> Self {
+    /// Writes into `dir`.
+    pub fn new<const D: usize>(dir: &Path, body: &Body<D>, settings: SurfaceSettings) -> Self {
         CrackSurface {
             every: Every(settings.interval),
             settings,
             dir: dir.to_path_buf(),
-            offsets: bonds.offsets.clone(),
-            neighbors: bonds.neighbors.clone(),
-            quad: quad.clone(),
             thickness: body.thickness,
             samples: Vec::new(),
             cells: Vec::new(),
@@ -334,9 +321,9 @@ impl<const D: usize> Observer<D> for CrackSurface {
         }
         let halves = broken_halves(
             view.body,
-            &self.offsets,
-            &self.neighbors,
-            &self.quad,
+            &view.bonds.offsets,
+            &view.bonds.neighbors,
+            view.quad,
             &view.state.status,
         );
         self.samples.push(Sample {
@@ -398,9 +385,6 @@ mod tests {
             },
             every: Every(1),
             dir: dir.to_path_buf(),
-            offsets: vec![0],
-            neighbors: Vec::new(),
-            quad: Quadrature::new(crate::bonds::PartialVolume::Hhb, &[], &[], &[]),
             thickness: 1.0,
             samples: Vec::new(),
             cells: Vec::new(),

@@ -3,6 +3,7 @@
 //! Observers do not depend on the material: they see the simulation through `Fields`.
 
 use crate::body::Body;
+use crate::bonds::{Bonds, Quadrature};
 use crate::math::Vector;
 use crate::solver::Fields;
 use crate::state::State;
@@ -12,6 +13,8 @@ use std::cell::OnceCell;
 pub struct StepView<'a, const D: usize> {
     pub body: &'a Body<D>,
     pub state: &'a State<D>,
+    pub bonds: &'a Bonds,
+    pub quad: &'a Quadrature,
     /// True for the last step of the run.
     pub last: bool,
     fields: &'a dyn Fields<D>,
@@ -24,6 +27,8 @@ impl<'a, const D: usize> StepView<'a, D> {
         StepView {
             body: sim.body(),
             state: sim.state(),
+            bonds: sim.bonds(),
+            quad: sim.quadrature(),
             last,
             fields: sim,
             damage: OnceCell::new(),

@@ -5,7 +5,7 @@ use super::contact::NodeContact;
 use super::impactor::{Impactor, Impactors};
 use super::ForceEngine;
 use crate::body::Body;
-use crate::bonds::{Bonds, PartialVolume};
+use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::counters::Counters;
 use crate::damage::Damage;
 use crate::loading::Loading;
@@ -373,6 +373,10 @@ fn constraints<const D: usize>(
 pub trait Fields<const D: usize> {
     fn body(&self) -> &Body<D>;
     fn state(&self) -> &State<D>;
+    /// The bond families (topology and reference lengths).
+    fn bonds(&self) -> &Bonds;
+    /// The partial-volume weights of the bonds.
+    fn quadrature(&self) -> &Quadrature;
     /// Damage index per node.
     fn damage(&self) -> Vec<f64>;
     /// Strain energy density per node (J/m³).
@@ -407,6 +411,12 @@ impl<const D: usize, M: Material<D>> Fields<D> for Simulation<D, M> {
     }
     fn state(&self) -> &State<D> {
         &self.state
+    }
+    fn bonds(&self) -> &Bonds {
+        &self.bonds
+    }
+    fn quadrature(&self) -> &Quadrature {
+        &self.engine.quad
     }
     fn damage(&self) -> Vec<f64> {
         self.engine.damage(&self.body, &self.bonds, &self.state)
