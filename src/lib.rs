@@ -26,3 +26,4 @@ pub mod plot;
 pub mod run;
 pub mod solver;
 pub mod state;
+pub mod study;
