@@ -20,7 +20,7 @@ use std::time::Instant;
 pub enum StepError {
     #[error("the material cannot be set up on these bonds: {0}")]
     Setup(#[from] PointError),
-    #[error("the run went unstable at step {step} (t = {time:e} s): {quantity} of node {node} at x = {position:?} is {value:.4e}; lower the time step (safety_factor) or check the loads")]
+    #[error("the run went unstable at step {step} (t = {time:e} s): {quantity} of node {node} at x = {position:?} is {value:.4e}; lower the time step (safety_factor) or check the loads{hint}")]
     Unstable {
         step: u64,
         time: f64,
@@ -28,12 +28,18 @@ pub enum StepError {
         position: Vec<f64>,
         quantity: &'static str,
         value: f64,
+        /// What else to look at for this material (empty for central models).
+        hint: &'static str,
     },
     #[error(
         "the quasi-static solver did not converge in load step {step} (load time {time:e}): {what}"
     )]
     NotConverged { step: u64, time: f64, what: String },
 }
+
+/// The instability hint of a model with non-central force states: a damaged correspondence
+/// family stiffens past the intact body's stable step (docs/models.md).
+const NON_CENTRAL_HINT: &str = "; a correspondence node that lost many bonds is stiffer than the intact body (docs/models.md, \"Time step and energy under heavy damage\"): a smaller safety_factor may be needed";
 
 /// Everything a run needs, with public fields (the reference data is not to be changed once
 /// the run has started).
@@ -299,6 +305,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
                         position: self.body.positions[i].iter().cloned().collect(),
                         quantity,
                         value,
+                        hint: Self::instability_hint(),
                     });
                 }
             }
@@ -333,7 +340,16 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             quantity:
                 "speed (m/s; the body's kinetic energy is more than ten times the energy put in)",
             value: self.state.v[node].norm(),
+            hint: Self::instability_hint(),
         })
+    }
+
+    fn instability_hint() -> &'static str {
+        if M::CENTRAL {
+            ""
+        } else {
+            NON_CENTRAL_HINT
+        }
     }
 
     /// Kinetic energy (J).

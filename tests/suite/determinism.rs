@@ -235,9 +235,9 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
 
 /// The 3D bar's elasticity and horizon.
 const BAR_E: f64 = 1.0e9;
-const BAR_DELTA: f64 = 3.0e-3;
+pub(crate) const BAR_DELTA: f64 = 3.0e-3;
 
-fn bar_elasticity() -> Elasticity {
+pub(crate) fn bar_elasticity() -> Elasticity {
     Elasticity {
         youngs_modulus: BAR_E,
         poisson_ratio: 0.3,
@@ -258,7 +258,7 @@ fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
 }
 
 /// A critical energy at which the pulled bar fractures (G0 = 0.1 J/m²), tension only.
-fn bar_energy() -> Damage {
+pub(crate) fn bar_energy() -> Damage {
     CriticalEnergy {
         wc: PerNode::Uniform(CriticalEnergy::critical_energy(
             0.1,
@@ -315,7 +315,7 @@ fn bar_3d_run_steps<M: Material<3>>(
 }
 
 /// The pre-cracked 3D bar (20 × 8 × 8 cells, half-depth notch), pulled at both ends.
-fn bar_3d_sim<M: Material<3>>(material: M, damage: Damage) -> Simulation<3, M> {
+pub(crate) fn bar_3d_sim<M: Material<3>>(material: M, damage: Damage) -> Simulation<3, M> {
     {
         let dx = 1.0e-3;
         let (nx, ny, nz) = (20usize, 8usize, 8usize);
