@@ -286,7 +286,7 @@ pub(crate) mod avx {
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(crate) unsafe fn bond_vectors(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
-        // No closure here: a closure does not inherit `avx2` and would be called per row.
+        // No closure here: one was compiled out of line and called per row.
         let base = nb.current.as_ptr();
         let mask = _mm256_set_epi64x(0, -1, -1, -1);
         let js = &nb.neighbors[b..b + 4];
