@@ -145,5 +145,8 @@ fn correspondence_under_heavy_damage_is_stopped_with_its_hint() {
         other => panic!("expected an instability diagnosis, got {other:?}"),
     }
     assert!(msg.contains("docs/models.md"), "{msg}");
-    assert!(sim.check_finite().is_ok(), "values overflowed before the guard");
+    assert!(
+        sim.check_finite().is_ok(),
+        "values overflowed before the guard"
+    );
 }
