@@ -164,6 +164,25 @@ mod avx {
         (_mm256_unpacklo_pd(even, odd), _mm256_unpackhi_pd(even, odd))
     }
 
+    /// The entries of the neighbours' B and C1 (0..9 and 9..18 of their point states,
+    /// column-major), two at a time, one lane per neighbour: calls `add(row, column, entries,
+    /// is_c1)` for each in order (C1 only with zero-energy control).
+    #[inline(always)]
+    unsafe fn neighbour_entries<const CONTROL: bool>(
+        p: &[*const f64; 4],
+        mut add: impl FnMut(usize, usize, __m256d, bool),
+    ) {
+        let pairs = if CONTROL { 9 } else { 5 };
+        for q in 0..pairs {
+            let (e0, e1) = pair(p, 2 * q);
+            for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
+                if m < 9 || CONTROL {
+                    add(m % 3, (m % 9) / 3, e, m >= 9);
+                }
+            }
+        }
+    }
+
     /// (x, y, z) of the nodes `n` in the flat positions `base`, less `origin`, one lane per
     /// node: (x, y) and (y, z) pairs, so that no load reads past a node.
     #[target_feature(enable = "avx2,fma")]
@@ -390,18 +409,13 @@ mod avx {
             // The neighbours' B and C1 (entries 0..18 of their point states), two entries
             // at a time: Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
             let p = j.map(|k| base.add(k * stride));
-            let pairs = if CONTROL { 9 } else { 5 };
-            for q in 0..pairs {
-                let (e0, e1) = pair(&p, 2 * q);
-                for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
-                    let (r, c) = (m % 3, (m % 9) / 3);
-                    if m < 9 {
-                        ob[r] = _mm256_fmadd_pd(e, xs[c], ob[r]);
-                    } else if CONTROL {
-                        oc[r] = _mm256_fmadd_pd(e, es[c], oc[r]);
-                    }
+            neighbour_entries::<CONTROL>(&p, |r, c, e, is_c1| {
+                if is_c1 {
+                    oc[r] = _mm256_fmadd_pd(e, es[c], oc[r]);
+                } else {
+                    ob[r] = _mm256_fmadd_pd(e, xs[c], ob[r]);
                 }
-            }
+            });
             b += 4;
         }
         let mut f = [0.0; 3];
@@ -529,18 +543,10 @@ mod avx {
                 t[r] = v;
             }
             let p = j.map(|k| base.add(k * stride));
-            let pairs = if CONTROL { 9 } else { 5 };
-            for q in 0..pairs {
-                let (e0, e1) = pair(&p, 2 * q);
-                for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
-                    let (r, c) = (m % 3, (m % 9) / 3);
-                    if m < 9 {
-                        t[r] = _mm256_fmadd_pd(e, xi[c], t[r]);
-                    } else if CONTROL {
-                        t[r] = _mm256_fmadd_pd(e, eta[c], t[r]);
-                    }
-                }
-            }
+            neighbour_entries::<CONTROL>(&p, |r, c, e, is_c1| {
+                let v = if is_c1 { eta[c] } else { xi[c] };
+                t[r] = _mm256_fmadd_pd(e, v, t[r]);
+            });
             // The pair force T = ω φ (both halves), the generic `pair_force` without V.
             let wp = omega_phi(law, w, l);
             let force = [
