@@ -69,12 +69,25 @@ const SINGULAR: f64 = 1e-8;
 /// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
 /// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
 /// relative round-off of ε_machine/|H| on small strains.
+///
+/// The vector pre-pass also keeps the shape tensor it used and the exact set of bonds it was
+/// summed over (`shape`, `kept`): K depends only on which bonds carry force, so the next
+/// pre-pass of the node reuses it, bit for bit, when that set has not changed (most nodes at
+/// most steps), and sums only N.
 #[derive(Debug, Clone, Copy)]
 #[repr(C)]
 pub struct CorrespondencePoint<const D: usize> {
     pub b: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
     pub h: SMatrix<f64, D, D>,
+    /// K of the bonds in `kept` (vector pre-pass only).
+    pub shape: SMatrix<f64, D, D>,
+    /// Bit b: bond b of the family carried force when `shape` was summed.
+    pub kept: [u64; 4],
+    /// The number of bonds of the family `kept` describes; 0: no reusable K. (A u64, not an
+    /// `Option`, so that the point state is f64-sized words with no padding: the force
+    /// kernels read it as a slice of f64.)
+    pub kept_of: u64,
 }
 
 impl<const D: usize> Default for CorrespondencePoint<D> {
@@ -83,6 +96,9 @@ impl<const D: usize> Default for CorrespondencePoint<D> {
             b: SMatrix::zeros(),
             c1: SMatrix::zeros(),
             h: SMatrix::zeros(),
+            shape: SMatrix::zeros(),
+            kept: [0; 4],
+            kept_of: 0,
         }
     }
 }
@@ -334,7 +350,12 @@ impl<const D: usize> Material<D> for Correspondence {
             ZeroEnergyControl::None => a,
             _ => a - c1 * h,
         };
-        CorrespondencePoint { b, c1, h }
+        CorrespondencePoint {
+            b,
+            c1,
+            h,
+            ..Default::default()
+        }
     }
 
     fn force_state(&self, i: usize, b: &BondGeom<D>, p: &Self::Point) -> f64 {
@@ -388,23 +409,47 @@ impl<const D: usize> Material<D> for Correspondence {
         self.linear_half(pi, sum_xi, sum_eta)
     }
 
-    /// K and N on four bonds at a time (`simd_correspondence`), then `finish_point`.
+    /// N on four bonds at a time (`simd_correspondence`), K too unless the family carries
+    /// force through exactly the bonds of `previous.shape`, then `finish_point`.
     unsafe fn vector_prepass(
         &self,
         nb: &mut NodeBonds,
         w: &UniformWeights,
+        previous: &Self::Point,
     ) -> Option<(Self::Point, u64)> {
         // Under a critical-energy law (`nb.work`) the pre-pass reads only the bond status.
         let law = self.kernel_law::<D>(nb.current.len() / 3)?;
+        let family = nb.neighbors.len();
+        // A family too large for `kept` sums K with N in one pass, as it cannot reuse it.
+        let large = family > simd_correspondence::KEPT_BITS;
         // SAFETY: forwarded from the caller (with FMA, checked by `kernel_law`); `reference`
         // has one position per node.
-        let (k, n, broke) = unsafe { simd_correspondence::correspondence_sums(nb, &law, w) };
-        let acc = CorrespondencePoint {
-            b: SMatrix::from_column_slice(&k),
-            c1: SMatrix::zeros(),
-            h: SMatrix::from_column_slice(&n),
+        let sums = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, large) };
+        let family = family as u64;
+        let shape = match sums.kept {
+            _ if large => SMatrix::from_column_slice(&sums.k),
+            Some(kept) if previous.kept_of == family && previous.kept == kept => previous.shape,
+            _ => {
+                // The status is now decided: this pass breaks nothing and sums the same N.
+                let s0 = nb.s0.take();
+                // SAFETY: as above.
+                let k = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, true) }.k;
+                nb.s0 = s0;
+                SMatrix::from_column_slice(&k)
+            }
         };
-        Some((Material::<D>::finish_point(self, nb.i, acc), broke))
+        let acc = CorrespondencePoint {
+            b: shape,
+            h: SMatrix::from_column_slice(&sums.n),
+            ..Default::default()
+        };
+        let point = CorrespondencePoint {
+            shape,
+            kept: sums.kept.unwrap_or_default(),
+            kept_of: if sums.kept.is_some() { family } else { 0 },
+            ..Material::<D>::finish_point(self, nb.i, acc)
+        };
+        Some((point, sums.broke))
     }
 
     /// The other halves and the own-half sums on four bonds at a time, then
@@ -419,8 +464,8 @@ impl<const D: usize> Material<D> for Correspondence {
     ) -> Option<([f64; 3], u64)> {
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
-        // SAFETY: `CorrespondencePoint` is `repr(C)` of three D×D f64 matrices (B, C1, H),
-        // `stride` f64 each, with no padding.
+        // SAFETY: `CorrespondencePoint` is `repr(C)` of f64 and u64 fields only (no padding),
+        // starting with the D×D matrices B and C1.
         let flat = unsafe {
             std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
         };

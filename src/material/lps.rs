@@ -244,6 +244,7 @@ impl<const D: usize> Material<D> for Lps {
         &self,
         nb: &mut NodeBonds,
         w: &UniformWeights,
+        _previous: &LpsPoint,
     ) -> Option<(LpsPoint, u64)> {
         if nb.softening.is_some() || nb.dim != 3 {
             return None; // no LPS kernel for softening, nor a 2D pre-pass kernel

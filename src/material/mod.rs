@@ -255,7 +255,8 @@ pub trait Material<const D: usize>: Sync + Send {
 
     /// Optional AVX2 pre-pass of one node (3D, uniform grid, one critical stretch, or the
     /// uniform law `nb` carries): its point state and the bonds it broke, or `None` to use the
-    /// generic loop.
+    /// generic loop. `previous` is the node's point state from the last evaluation (the
+    /// default before the first), which a model may reuse parts of.
     ///
     /// # Safety
     /// `simd::available()` and every neighbour index below `nb.current.len() / 3`.
@@ -263,6 +264,7 @@ pub trait Material<const D: usize>: Sync + Send {
         &self,
         _nb: &mut NodeBonds,
         _w: &UniformWeights,
+        _previous: &Self::Point,
     ) -> Option<(Self::Point, u64)> {
         None
     }

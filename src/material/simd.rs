@@ -321,7 +321,9 @@ pub(crate) mod avx {
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(crate) unsafe fn intact(status: &[u8], b: usize) -> __m256d {
-        let st = u32::from_le_bytes([status[b], status[b + 1], status[b + 2], status[b + 3]]);
+        // One unaligned 4-byte read: the kernels call this only for b + 4 <= status.len().
+        debug_assert!(b + 4 <= status.len());
+        let st = u32::from_le((status.as_ptr().add(b) as *const u32).read_unaligned());
         _mm256_castsi256_pd(_mm256_cmpeq_epi64(
             _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),
             _mm256_setzero_si256(),
@@ -375,9 +377,22 @@ pub(crate) mod avx {
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(crate) unsafe fn phi(w: &UniformWeights, l: __m256d) -> __m256d {
-        let n = &w.node;
         match w.rule {
-            PartialVolume::Hhb => _mm256_min_pd(
+            PartialVolume::Hhb => phi_of::<true>(w, l),
+            // `uniform()` is never Some for the exact rule, so it does not reach the kernels.
+            PartialVolume::None | PartialVolume::Exact => phi_of::<false>(w, l),
+        }
+    }
+
+    /// `phi` with the rule fixed at compile time (`HHB`: the rule is `PartialVolume::Hhb`, else
+    /// no partial volumes), for kernels whose loop is too long for the compiler to hoist the
+    /// rule's test out of it.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn phi_of<const HHB: bool>(w: &UniformWeights, l: __m256d) -> __m256d {
+        let n = &w.node;
+        if HHB {
+            _mm256_min_pd(
                 _mm256_max_pd(
                     _mm256_mul_pd(
                         _mm256_sub_pd(_mm256_set1_pd(n.horizon + n.half_cell), l),
@@ -386,12 +401,12 @@ pub(crate) mod avx {
                     _mm256_setzero_pd(),
                 ),
                 _mm256_set1_pd(1.0),
-            ),
-            // `uniform()` is never Some for the exact rule, so it does not reach the kernels.
-            PartialVolume::None | PartialVolume::Exact => _mm256_and_pd(
+            )
+        } else {
+            _mm256_and_pd(
                 _mm256_cmp_pd::<_CMP_LE_OQ>(l, _mm256_set1_pd(n.horizon)),
                 _mm256_set1_pd(1.0),
-            ),
+            )
         }
     }
 

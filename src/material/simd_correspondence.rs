@@ -1,5 +1,6 @@
 //! AVX2 + FMA bond loops of the correspondence model (3D, uniform grid, one horizon), four
-//! bonds at a time: the pre-pass sums K = Σ ω ξ⊗ξ w and N = Σ ω η⊗ξ w (seed 004, Eqs. 6–7);
+//! bonds at a time: the pre-pass sums N = Σ ω η⊗ξ w and, when the caller cannot reuse it
+//! (`Sums::kept`), K = Σ ω ξ⊗ξ w (seed 004, Eqs. 6–7);
 //! the force pass under one critical stretch sums the other halves ω φ V (B_j ξ + C1_j η) and
 //! the own-half sums Σ s ξ, Σ s η (see `Correspondence` and `Material::FACTORED_OWN_HALF`);
 //! the force pass under one critical energy evaluates both halves of each bond,
@@ -23,6 +24,7 @@
 
 use super::simd::NodeBonds;
 use crate::bonds::partial_volume::UniformWeights;
+use crate::bonds::PartialVolume;
 use crate::damage::critical_energy::UniformCriticalEnergy;
 
 /// What the kernels need of the model.
@@ -60,8 +62,25 @@ impl CorrespondenceLaw<'_> {
     }
 }
 
-/// Pre-pass of node i: K and N (column-major 3×3) over its intact bonds, deciding failure like
-/// the generic loop; returns (K, N, bonds broken).
+/// Families of up to this many bonds get `Sums::kept`.
+pub const KEPT_BITS: usize = 256;
+
+/// What the pre-pass of a node sums.
+#[derive(Debug, Clone, Copy)]
+pub struct Sums {
+    /// K = Σ ω ξ⊗ξ w, column-major (zero unless asked for).
+    pub k: [f64; 9],
+    /// N = Σ ω η⊗ξ w, column-major.
+    pub n: [f64; 9],
+    /// Bonds broken by this pass.
+    pub broke: u64,
+    /// Bit b set when bond b carried force (intact after this pass, of non-zero length):
+    /// the exact set K is summed over, for families of up to `KEPT_BITS` bonds.
+    pub kept: Option<[u64; 4]>,
+}
+
+/// Pre-pass of node i: N (and K if `with_k`; column-major 3×3) over its intact bonds,
+/// deciding failure like the generic loop, and which bonds carried force.
 ///
 /// # Safety
 /// `simd::fma_available()`; every neighbour index below `nb.current.len() / 3` and
@@ -70,10 +89,19 @@ pub unsafe fn correspondence_sums(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
     w: &UniformWeights,
-) -> ([f64; 9], [f64; 9], u64) {
+    with_k: bool,
+) -> Sums {
     #[cfg(target_arch = "x86_64")]
     {
-        avx::sums(nb, law, w)
+        let hhb = w.rule == PartialVolume::Hhb;
+        match (nb.s0.is_some(), with_k) {
+            (true, true) => avx::with_weights!(avx::sums, [true, true], hhb, law, (nb, law, w)),
+            (true, false) => avx::with_weights!(avx::sums, [true, false], hhb, law, (nb, law, w)),
+            (false, true) => avx::with_weights!(avx::sums, [false, true], hhb, law, (nb, law, w)),
+            (false, false) => {
+                avx::with_weights!(avx::sums, [false, false], hhb, law, (nb, law, w))
+            }
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     unreachable!("fma_available() is false off x86-64")
@@ -94,10 +122,11 @@ pub unsafe fn correspondence_force(
 ) -> ([f64; 3], [f64; 3], [f64; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
+        let hhb = w.rule == PartialVolume::Hhb;
         if law.control {
-            avx::force::<true>(nb, law, w, points, stride)
+            avx::with_weights!(avx::force, [true], hhb, law, (nb, law, w, points, stride))
         } else {
-            avx::force::<false>(nb, law, w, points, stride)
+            avx::with_weights!(avx::force, [false], hhb, law, (nb, law, w, points, stride))
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -123,10 +152,23 @@ pub unsafe fn correspondence_force_work(
     debug_assert_eq!(nb.previous.len(), nb.current.len());
     #[cfg(target_arch = "x86_64")]
     {
+        let hhb = w.rule == PartialVolume::Hhb;
         if law.control {
-            avx::force_work::<true>(nb, law, w, energy, points, stride)
+            avx::with_weights!(
+                avx::force_work,
+                [true],
+                hhb,
+                law,
+                (nb, law, w, energy, points, stride)
+            )
         } else {
-            avx::force_work::<false>(nb, law, w, energy, points, stride)
+            avx::with_weights!(
+                avx::force_work,
+                [false],
+                hhb,
+                law,
+                (nb, law, w, energy, points, stride)
+            )
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -137,10 +179,25 @@ pub unsafe fn correspondence_force_work(
 mod avx {
     use super::*;
     use crate::damage::{DamageLaw, Work};
-    use crate::material::simd::avx::{intact, phi, prefetch, sum};
+    use crate::material::simd::avx::{intact, phi_of, prefetch, sum};
     use crate::material::simd::{length, tail};
     use crate::state::{BROKEN, INTACT};
     use std::arch::x86_64::*;
+
+    /// Calls `kernel::<FLAGS.., HHB, INVERSE>(args..)` with the partial-volume rule (`HHB`)
+    /// and the influence function (`INVERSE`: ω = δ/|ξ|) as compile-time flags: tested inside
+    /// the bond loop, they were not hoisted out of it.
+    macro_rules! with_weights {
+        ($($kernel:ident)::+, [$($flag:expr),*], $hhb:expr, $law:expr, ($($arg:expr),*)) => {
+            match ($hhb, $law.inverse_influence) {
+                (true, true) => $($kernel)::+::<$($flag,)* true, true>($($arg),*),
+                (true, false) => $($kernel)::+::<$($flag,)* true, false>($($arg),*),
+                (false, true) => $($kernel)::+::<$($flag,)* false, true>($($arg),*),
+                (false, false) => $($kernel)::+::<$($flag,)* false, false>($($arg),*),
+            }
+        };
+    }
+    pub(super) use with_weights;
 
     /// The neighbours of bonds b..b+4.
     #[inline(always)]
@@ -222,9 +279,13 @@ mod avx {
     /// ω(|ξ|) φ(|ξ|) on four lanes: the generic ω · (φ μ) with μ = 1.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn omega_phi(law: &CorrespondenceLaw, w: &UniformWeights, l: __m256d) -> __m256d {
-        let p = phi(w, l);
-        if law.inverse_influence {
+    unsafe fn omega_phi<const HHB: bool, const INVERSE: bool>(
+        law: &CorrespondenceLaw,
+        w: &UniformWeights,
+        l: __m256d,
+    ) -> __m256d {
+        let p = phi_of::<HHB>(w, l);
+        if INVERSE {
             _mm256_mul_pd(_mm256_div_pd(_mm256_set1_pd(law.horizon), l), p)
         } else {
             p
@@ -234,14 +295,14 @@ mod avx {
     /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn weight(
+    unsafe fn weight<const HHB: bool, const INVERSE: bool>(
         law: &CorrespondenceLaw,
         w: &UniformWeights,
         l: __m256d,
         keep: __m256d,
     ) -> __m256d {
-        let pv = _mm256_mul_pd(phi(w, l), _mm256_set1_pd(w.node.volume));
-        let s = if law.inverse_influence {
+        let pv = _mm256_mul_pd(phi_of::<HHB>(w, l), _mm256_set1_pd(w.node.volume));
+        let s = if INVERSE {
             _mm256_mul_pd(_mm256_div_pd(_mm256_set1_pd(law.horizon), l), pv)
         } else {
             pv
@@ -265,39 +326,48 @@ mod avx {
     }
 
     /// The lanes of bonds b..b+4 that carry force: intact after the critical stretch (if
-    /// this pass decides it: |y| − |ξ| > s0 |ξ|, as the generic loop) and of non-zero length.
-    /// A macro, so that it is always inlined into the kernels (as a function it was not).
+    /// this pass decides it, `$decide`: |y| − |ξ| > s0 |ξ|, as the generic loop) and of
+    /// non-zero length. A macro, so that it is always inlined into the kernels (as a function
+    /// it was not).
+    ///
+    /// `$near` is ((1 + s0)² (1 − 10⁻¹²)): lanes with |y|² at most that times |ξ|² cannot
+    /// exceed s0 whatever the rounding of the exact test (its errors are ~10⁻¹⁶ relative), so
+    /// the square root and the exact test run only for groups with a lane nearer the
+    /// threshold (or NaN): the same decisions as the generic loop, without a square root per
+    /// bond (whose latency the pre-pass was waiting on, by its samples).
     macro_rules! keep_lanes {
-        ($nb:expr, $b:expr, $d:expr, $l:expr, $broke:expr) => {{
+        ($decide:expr, $nb:expr, $b:expr, $d:expr, $l:expr, $s0:expr, $near:expr, $broke:expr) => {{
             let sq = square($d);
-            if let Some(s0) = $nb.s0 {
+            let mut live = intact($nb.status, $b);
+            let far = _mm256_mul_pd(_mm256_mul_pd($l, $l), $near);
+            if $decide && _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NLE_UQ>(sq, far)) != 0 {
                 let len = _mm256_sqrt_pd(sq);
                 let over = _mm256_and_pd(
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(
-                        _mm256_sub_pd(len, $l),
-                        _mm256_mul_pd(_mm256_set1_pd(s0), $l),
-                    ),
-                    intact($nb.status, $b),
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_sub_pd(len, $l), _mm256_mul_pd($s0, $l)),
+                    live,
                 );
                 let bits = _mm256_movemask_pd(over);
                 if bits != 0 {
                     $broke += break_lanes($nb, $b, bits);
+                    live = intact($nb.status, $b);
                 }
             }
             // |y| > 0 exactly when |y|² > 0.
-            _mm256_and_pd(
-                intact($nb.status, $b),
-                _mm256_cmp_pd::<_CMP_GT_OQ>(sq, _mm256_setzero_pd()),
-            )
+            _mm256_and_pd(live, _mm256_cmp_pd::<_CMP_GT_OQ>(sq, _mm256_setzero_pd()))
         }};
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn sums(
+    pub(super) unsafe fn sums<
+        const DECIDE: bool,
+        const WITH_K: bool,
+        const HHB: bool,
+        const INVERSE: bool,
+    >(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
-    ) -> ([f64; 9], [f64; 9], u64) {
+    ) -> Sums {
         let i = nb.i;
         let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
         let yi = own(current, i);
@@ -307,6 +377,11 @@ mod avx {
         let mut k = [zero; 6];
         // N column-major: entry (r, c) at 3c + r, as `SMatrix`.
         let mut n = [zero; 9];
+        let s0 = nb.s0.unwrap_or(f64::INFINITY);
+        let near = _mm256_set1_pd((1.0 + s0) * (1.0 + s0) * (1.0 - 1e-12));
+        let s0 = _mm256_set1_pd(s0);
+        // Bit b: bond b carries force (meaningful for families of up to `KEPT_BITS` bonds).
+        let mut kept = [0u64; 4];
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
@@ -314,21 +389,24 @@ mod avx {
             let d = rows(current, j, &yi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            let keep = keep_lanes!(nb, b, &d, l, broke);
-            let s = weight(law, w, l, keep);
+            let keep = keep_lanes!(DECIDE, nb, b, &d, l, s0, near, broke);
+            kept[(b / 64) & 3] |= (_mm256_movemask_pd(keep) as u64) << (b % 64);
+            let s = weight::<HHB, INVERSE>(law, w, l, keep);
             let xi = rows(reference, j, &xi_i);
             // K += (ξ s) ξᵀ, N += (η s) ξᵀ (the generic `accumulate`, fused).
-            let xs = [
-                _mm256_mul_pd(xi[0], s),
-                _mm256_mul_pd(xi[1], s),
-                _mm256_mul_pd(xi[2], s),
-            ];
-            k[0] = _mm256_fmadd_pd(xs[0], xi[0], k[0]);
-            k[1] = _mm256_fmadd_pd(xs[1], xi[0], k[1]);
-            k[2] = _mm256_fmadd_pd(xs[2], xi[0], k[2]);
-            k[3] = _mm256_fmadd_pd(xs[1], xi[1], k[3]);
-            k[4] = _mm256_fmadd_pd(xs[2], xi[1], k[4]);
-            k[5] = _mm256_fmadd_pd(xs[2], xi[2], k[5]);
+            if WITH_K {
+                let xs = [
+                    _mm256_mul_pd(xi[0], s),
+                    _mm256_mul_pd(xi[1], s),
+                    _mm256_mul_pd(xi[2], s),
+                ];
+                k[0] = _mm256_fmadd_pd(xs[0], xi[0], k[0]);
+                k[1] = _mm256_fmadd_pd(xs[1], xi[0], k[1]);
+                k[2] = _mm256_fmadd_pd(xs[2], xi[0], k[2]);
+                k[3] = _mm256_fmadd_pd(xs[1], xi[1], k[3]);
+                k[4] = _mm256_fmadd_pd(xs[2], xi[1], k[4]);
+                k[5] = _mm256_fmadd_pd(xs[2], xi[2], k[5]);
+            }
             for r in 0..3 {
                 let es = _mm256_mul_pd(_mm256_sub_pd(d[r], xi[r]), s);
                 for c in 0..3 {
@@ -350,47 +428,77 @@ mod avx {
         for e in 0..9 {
             ns[e] = sum(n[e]);
         }
+        let lanes_end = b;
         broke += tail(nb, b, |j, l, d, _| {
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi(i, j);
             for r in 0..3 {
                 let (xs, es) = (xi[r] * s, (d[r] - xi[r]) * s);
                 for c in 0..3 {
-                    ks[3 * c + r] += xs * xi[c];
+                    if WITH_K {
+                        ks[3 * c + r] += xs * xi[c];
+                    }
                     ns[3 * c + r] += es * xi[c];
                 }
             }
         });
-        (ks, ns, broke)
+        // The tail's bonds that carried force: intact after `tail` and of non-zero length.
+        for b in lanes_end..nb.neighbors.len() {
+            let j = nb.neighbors[b] as usize;
+            let at = |k: usize| {
+                [
+                    nb.current[3 * k],
+                    nb.current[3 * k + 1],
+                    nb.current[3 * k + 2],
+                ]
+            };
+            let (yj, yi) = (at(j), at(i));
+            let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
+            if nb.status[b] == INTACT && length(&d) > 0.0 {
+                kept[(b / 64) & 3] |= 1 << (b % 64);
+            }
+        }
+        Sums {
+            k: ks,
+            n: ns,
+            broke,
+            kept: (nb.neighbors.len() <= KEPT_BITS).then_some(kept),
+        }
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn force<const CONTROL: bool>(
+    pub(super) unsafe fn force<const CONTROL: bool, const HHB: bool, const INVERSE: bool>(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
         points: &[f64],
         stride: usize,
     ) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        debug_assert!(
+            nb.s0.is_none(),
+            "the correspondence force pass does not decide failure"
+        );
         let i = nb.i;
         let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
         let yi = own(current, i);
         let xi_i = own(reference, i);
         let zero = _mm256_setzero_pd();
-        // The other halves' B and C1 terms in separate sums (shorter dependency chains).
-        let (mut ob, mut oc) = ([zero; 3], [zero; 3]);
+        // One sum per row for both the B and the C1 terms: fewer live registers (the sums
+        // spilled to the stack when the B and C1 terms had their own).
+        let mut other = [zero; 3];
         let (mut sxi, mut seta) = ([zero; 3], [zero; 3]);
-        let mut broke = 0;
         let mut b = 0;
         let base = points.as_ptr();
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
-            // This pass decides no failure (`nb.s0` is `None`).
             let d = rows(current, j, &yi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            let keep = keep_lanes!(nb, b, &d, l, broke);
-            let s = weight(law, w, l, keep);
+            let keep = _mm256_and_pd(
+                intact(nb.status, b),
+                _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
+            );
+            let s = weight::<HHB, INVERSE>(law, w, l, keep);
             let xi = rows(reference, j, &xi_i);
             let xs = [
                 _mm256_mul_pd(xi[0], s),
@@ -410,21 +518,15 @@ mod avx {
             // at a time: Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
             let p = j.map(|k| base.add(k * stride));
             neighbour_entries::<CONTROL>(&p, |r, c, e, is_c1| {
-                if is_c1 {
-                    oc[r] = _mm256_fmadd_pd(e, es[c], oc[r]);
-                } else {
-                    ob[r] = _mm256_fmadd_pd(e, xs[c], ob[r]);
-                }
+                let m = if is_c1 { es[c] } else { xs[c] };
+                other[r] = _mm256_fmadd_pd(e, m, other[r]);
             });
             b += 4;
         }
-        let mut f = [0.0; 3];
-        for a in 0..3 {
-            f[a] = sum(_mm256_add_pd(ob[a], oc[a]));
-        }
+        let mut f = [sum(other[0]), sum(other[1]), sum(other[2])];
         let mut sx = [sum(sxi[0]), sum(sxi[1]), sum(sxi[2])];
         let mut se = [sum(seta[0]), sum(seta[1]), sum(seta[2])];
-        broke += tail(nb, b, |j, l, d, _| {
+        tail(nb, b, |j, l, d, _| {
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi(i, j);
             let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
@@ -439,10 +541,6 @@ mod avx {
                 f[r] += v * s;
             }
         });
-        debug_assert_eq!(
-            broke, 0,
-            "the correspondence force pass does not decide failure"
-        );
         (f, sx, se)
     }
 
@@ -484,7 +582,7 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn force_work<const CONTROL: bool>(
+    pub(super) unsafe fn force_work<const CONTROL: bool, const HHB: bool, const INVERSE: bool>(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
@@ -548,7 +646,7 @@ mod avx {
                 t[r] = _mm256_fmadd_pd(e, v, t[r]);
             });
             // The pair force T = ω φ (both halves), the generic `pair_force` without V.
-            let wp = omega_phi(law, w, l);
+            let wp = omega_phi::<HHB, INVERSE>(law, w, l);
             let force = [
                 _mm256_mul_pd(t[0], wp),
                 _mm256_mul_pd(t[1], wp),
@@ -596,7 +694,7 @@ mod avx {
             _mm256_storeu_pd(hp.add(8), _mm256_permute2f128_pd::<0x31>(lo_a, lo_b));
             _mm256_storeu_pd(hp.add(12), _mm256_permute2f128_pd::<0x31>(hi_a, hi_b));
             // `fails_on_work`: w ≥ w_c φ̄, φ̄ = ½(φ + φ), and in tension if `tension_only`.
-            let p = phi(w, l);
+            let p = phi_of::<HHB>(w, l);
             let over = _mm256_and_pd(
                 _mm256_cmp_pd::<_CMP_GE_OQ>(
                     w_new,

@@ -452,7 +452,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             }
                             // SAFETY: AVX2 is available and neighbour indices are in bounds.
                             if let Some((p, nb_broken)) =
-                                unsafe { material.vector_prepass(&mut nb, w) }
+                                unsafe { material.vector_prepass(&mut nb, w, &points[k]) }
                             {
                                 points[k] = p;
                                 broke += nb_broken;

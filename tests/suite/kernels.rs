@@ -231,6 +231,58 @@ fn correspondence_kernels_match_the_generic_loop() {
     }
 }
 
+/// The correspondence pre-pass reuses a node's shape tensor K while the bonds that carry force
+/// are the same: a field that breaks bonds, then every bond intact again (as when a rejected
+/// adaptive step restores the state) under a second field that breaks others, then that field
+/// again (K reused). Each evaluation matches the generic loop, which always sums K.
+#[test]
+fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
+    use peridyn::material::correspondence::ZeroEnergyControl;
+    let material = correspondence(
+        Dimensionality::ThreeD,
+        70e9,
+        0.25,
+        3e-3,
+        ZeroEnergyControl::Wan { coefficient: 1.0 },
+    );
+    let rule = PartialVolume::Hhb;
+    let evaluate = |vector: bool| {
+        let (body, bonds) = lattice_body::<3>(9, 1e-3, 3.0, rule);
+        let mut sim = simulation(
+            body,
+            bonds,
+            material.clone(),
+            CriticalStretch::new(1e-3),
+            rule,
+        );
+        sim.engine.vector_kernels = vector;
+        let body = sim.body.clone();
+        let mut out = Vec::new();
+        for (seed, restore) in [(0, false), (1, true), (1, false)] {
+            if restore {
+                sim.state.status.fill(0);
+            }
+            for i in 0..body.len() {
+                let u = Vector::<3>::from_fn(|k, _| {
+                    2e-3 * body.positions[i][k] * (1.0 + 0.5 * noise(3 * i + k + seed * 7919))
+                });
+                sim.state.set_displacement(&body, i, u);
+            }
+            sim.refresh_forces().unwrap();
+            out.push((sim.state.force.clone(), sim.state.status.clone()));
+        }
+        out
+    };
+    let (vector, generic) = (evaluate(true), evaluate(false));
+    assert_ne!(
+        vector[0].1, vector[1].1,
+        "the second field must break other bonds than the first"
+    );
+    for (k, ((fv, sv), (fg, sg))) in vector.iter().zip(&generic).enumerate() {
+        check((&format!("evaluation {k}"), fv, sv), (fg, sg));
+    }
+}
+
 #[test]
 fn softening_kernel_matches_the_generic_loop() {
     let dim = Dimensionality::ThreeD;
