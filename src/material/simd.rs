@@ -148,13 +148,14 @@ pub(crate) fn length(d: &[f64; 3]) -> f64 {
     (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
-/// The scalar tail of a family: calls `f(j, |ξ|, y, |y|)` for each intact bond from `from` on,
-/// deciding failure like the lanes do. Returns the bonds broken.
+/// The scalar tail of a family: calls `f(b, j, |ξ|, y, |y|)` for each bond b from `from` on
+/// that carries force (intact after failure is decided as the lanes do, |y| > 0). Returns the
+/// bonds broken.
 #[inline(always)] // so that the caller's closure (which inherits `avx2`) is inlined too
 pub(crate) fn tail(
     nb: &mut NodeBonds,
     from: usize,
-    mut f: impl FnMut(usize, f64, [f64; 3], f64),
+    mut f: impl FnMut(usize, usize, f64, [f64; 3], f64),
 ) -> u64 {
     let i = nb.i;
     let (xi, yi, zi) = (
@@ -183,7 +184,7 @@ pub(crate) fn tail(
             }
         }
         if len > 0.0 {
-            f(j, l, d, len);
+            f(b, j, l, d, len);
         }
     }
     broke
@@ -465,7 +466,7 @@ pub(crate) mod avx {
             b += 4;
         }
         let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
-        broke += tail(nb, b, |_, l, d, len| {
+        broke += tail(nb, b, |_, _, l, d, len| {
             let coef = law.coefficient(w, l, len);
             for a in 0..3 {
                 f[a] += coef * d[a];
@@ -568,7 +569,7 @@ pub(crate) mod avx {
             b += 4;
         }
         let mut s = sum(acc);
-        broke += tail(nb, b, |_, l, _, len| {
+        broke += tail(nb, b, |_, _, l, _, len| {
             s += law.omega(l) * l * (len - l) * (w.phi(l) * w.node.volume)
         });
         (s, broke)
@@ -611,7 +612,7 @@ pub(crate) mod avx {
             b += 4;
         }
         let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
-        tail(nb, b, |j, l, d, len| {
+        tail(nb, b, |_, j, l, d, len| {
             let (om, e, p) = (law.omega(l), len - l, w.phi(l));
             let ti = law.state(inv_m[i], theta[i], om, e, l);
             let tj = law.state(inv_m[j], theta[j], om, e, l);

@@ -276,6 +276,21 @@ mod avx {
         )
     }
 
+    /// ω(|ξ|) x on four lanes (ω = δ/|ξ| when `INVERSE`, else 1).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn times_omega<const INVERSE: bool>(
+        law: &CorrespondenceLaw,
+        l: __m256d,
+        x: __m256d,
+    ) -> __m256d {
+        if INVERSE {
+            _mm256_mul_pd(_mm256_div_pd(_mm256_set1_pd(law.horizon), l), x)
+        } else {
+            x
+        }
+    }
+
     /// ω(|ξ|) φ(|ξ|) on four lanes: the generic ω · (φ μ) with μ = 1.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
@@ -284,12 +299,7 @@ mod avx {
         w: &UniformWeights,
         l: __m256d,
     ) -> __m256d {
-        let p = phi_of::<HHB>(w, l);
-        if INVERSE {
-            _mm256_mul_pd(_mm256_div_pd(_mm256_set1_pd(law.horizon), l), p)
-        } else {
-            p
-        }
+        times_omega::<INVERSE>(law, l, phi_of::<HHB>(w, l))
     }
 
     /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V).
@@ -302,12 +312,7 @@ mod avx {
         keep: __m256d,
     ) -> __m256d {
         let pv = _mm256_mul_pd(phi_of::<HHB>(w, l), _mm256_set1_pd(w.node.volume));
-        let s = if INVERSE {
-            _mm256_mul_pd(_mm256_div_pd(_mm256_set1_pd(law.horizon), l), pv)
-        } else {
-            pv
-        };
-        _mm256_and_pd(s, keep)
+        _mm256_and_pd(times_omega::<INVERSE>(law, l, pv), keep)
     }
 
     /// Breaks the bonds of the lanes in `bits` unless an end is no-fail; returns how many.
@@ -339,6 +344,7 @@ mod avx {
         ($decide:expr, $nb:expr, $b:expr, $d:expr, $l:expr, $s0:expr, $near:expr, $broke:expr) => {{
             let sq = square($d);
             let mut live = intact($nb.status, $b);
+            // (Dead code when `$decide` is a false constant.)
             let far = _mm256_mul_pd(_mm256_mul_pd($l, $l), $near);
             if $decide && _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NLE_UQ>(sq, far)) != 0 {
                 let len = _mm256_sqrt_pd(sq);
@@ -428,8 +434,8 @@ mod avx {
         for e in 0..9 {
             ns[e] = sum(n[e]);
         }
-        let lanes_end = b;
-        broke += tail(nb, b, |j, l, d, _| {
+        broke += tail(nb, b, |b, j, l, d, _| {
+            kept[(b / 64) & 3] |= 1 << (b % 64);
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi(i, j);
             for r in 0..3 {
@@ -442,22 +448,6 @@ mod avx {
                 }
             }
         });
-        // The tail's bonds that carried force: intact after `tail` and of non-zero length.
-        for b in lanes_end..nb.neighbors.len() {
-            let j = nb.neighbors[b] as usize;
-            let at = |k: usize| {
-                [
-                    nb.current[3 * k],
-                    nb.current[3 * k + 1],
-                    nb.current[3 * k + 2],
-                ]
-            };
-            let (yj, yi) = (at(j), at(i));
-            let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
-            if nb.status[b] == INTACT && length(&d) > 0.0 {
-                kept[(b / 64) & 3] |= 1 << (b % 64);
-            }
-        }
         Sums {
             k: ks,
             n: ns,
@@ -526,7 +516,7 @@ mod avx {
         let mut f = [sum(other[0]), sum(other[1]), sum(other[2])];
         let mut sx = [sum(sxi[0]), sum(sxi[1]), sum(sxi[2])];
         let mut se = [sum(seta[0]), sum(seta[1]), sum(seta[2])];
-        tail(nb, b, |j, l, d, _| {
+        tail(nb, b, |_, j, l, d, _| {
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi(i, j);
             let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
