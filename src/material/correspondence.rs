@@ -29,7 +29,7 @@ use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
 use crate::math::{determinant, inverse, Vector};
 use crate::per_node::PerNode;
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 
 /// Zero-energy-mode control.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,43 +62,73 @@ const SINGULAR: f64 = 1e-8;
 /// state and no energy of its own.
 ///
 /// With B, a half is ω (A ξ + C1 z) = ω (B ξ + C1 η) since z = Y − F ξ = η − H ξ (Eq. 14): the
-/// force pass needs no z per bond and reads only B and C1, which come first (`repr(C)`) so
-/// that the gather of a neighbour's matrices touches as few cache lines as possible. H is
-/// kept for the energy (W of E(H), and z for the stabilisation energy).
+/// force pass needs no z per bond and reads only B and C1, which come first (`repr(C)`),
+/// followed by the node's positions (vector pre-pass): all the vector force pass reads of a
+/// neighbour, in the first three cache lines of a 64-byte-aligned record. H is kept for the
+/// energy (W of E(H), and z for the stabilisation energy).
 ///
 /// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
 /// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
 /// relative round-off of ε_machine/|H| on small strains.
 ///
-/// The vector pre-pass also keeps the shape tensor it used and the exact set of bonds it was
-/// summed over (`shape`, `kept`): K depends only on which bonds carry force, so the next
-/// pre-pass of the node reuses it, bit for bit, when that set has not changed (most nodes at
-/// most steps), and sums only N.
+/// The vector pre-pass also keeps K⁻¹, C1 and Σ s ξ with the exact set of bonds they were
+/// computed over (`shape_inverse`, `c1`, `shape_xi`, `kept`): they depend only on which bonds
+/// carry force, so the next pre-pass of the node reuses them, bit for bit, when that set has
+/// not changed (most nodes at most steps), and sums only N.
 #[derive(Debug, Clone, Copy)]
-#[repr(C)]
+#[repr(C, align(64))]
 pub struct CorrespondencePoint<const D: usize> {
     pub b: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
+    /// The node's current and reference positions (vector pre-pass only): the force kernels
+    /// read all they need of a neighbour, B, C1 and both positions, from its record.
+    pub y: SVector<f64, D>,
+    pub x: SVector<f64, D>,
     pub h: SMatrix<f64, D, D>,
-    /// K of the bonds in `kept` (vector pre-pass only).
-    pub shape: SMatrix<f64, D, D>,
-    /// Bit b: bond b of the family carried force when `shape` was summed.
+    /// K⁻¹ of the bonds in `kept` (vector pre-pass only; C1 is its function too).
+    pub shape_inverse: SMatrix<f64, D, D>,
+    /// Σ s ξ over the bonds of `kept`, which depends on them only, as K.
+    pub shape_xi: SVector<f64, D>,
+    /// Bit b: bond b of the family carried force when `shape_inverse` was computed.
     pub kept: [u64; 4],
     /// The number of bonds of the family `kept` describes; 0: no reusable K. (A u64, not an
     /// `Option`, so that the point state is f64-sized words with no padding: the force
     /// kernels read it as a slice of f64.)
     pub kept_of: u64,
+    /// Explicit padding to the 64-byte alignment (4D² + 3D + 5 words above, D + 3 here: a
+    /// multiple of eight words for D = 2 and 3), so that no byte of the record is undefined.
+    pad_d: SVector<f64, D>,
+    pad: [u64; 3],
 }
+
+// The force kernels' view of the record (3D).
+const _: () = {
+    use simd_correspondence::{RECORD_C1, RECORD_READ, RECORD_X, RECORD_Y};
+    use std::mem::{offset_of, size_of};
+    type Record = CorrespondencePoint<3>;
+    assert!(offset_of!(Record, b) == 0);
+    assert!(offset_of!(Record, c1) == 8 * RECORD_C1);
+    assert!(offset_of!(Record, y) == 8 * RECORD_Y && RECORD_Y == RECORD_C1 + 9);
+    assert!(offset_of!(Record, x) == 8 * RECORD_X && RECORD_X == RECORD_Y + 3);
+    assert!(size_of::<Record>() >= 8 * RECORD_READ);
+    // No implicit padding (see `pad`): the record is read as a slice of f64.
+    assert!(size_of::<Record>() == 8 * 56 && size_of::<CorrespondencePoint<2>>() == 8 * 32);
+};
 
 impl<const D: usize> Default for CorrespondencePoint<D> {
     fn default() -> Self {
         CorrespondencePoint {
             b: SMatrix::zeros(),
             c1: SMatrix::zeros(),
+            y: SVector::zeros(),
+            x: SVector::zeros(),
             h: SMatrix::zeros(),
-            shape: SMatrix::zeros(),
+            shape_inverse: SMatrix::zeros(),
+            shape_xi: SVector::zeros(),
             kept: [0; 4],
             kept_of: 0,
+            pad_d: SVector::zeros(),
+            pad: [0; 3],
         }
     }
 }
@@ -211,6 +241,59 @@ impl Correspondence {
         !(scale > 0.0 && determinant(k) > SINGULAR * scale)
     }
 
+    /// K⁻¹, or `None` for a singular or ill-conditioned K (a detached node).
+    fn shape_inverse<const D: usize>(k: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+        if Self::singular(k) {
+            return None;
+        }
+        inverse(k)
+    }
+
+    /// Node i's stabilisation tensor C1 from its K⁻¹: Wan's G C:K⁻¹ = G (λ tr(K⁻¹) I + 2μ K⁻¹)
+    /// (Eqs. 12–15), Silling's G c_s I, or zero without control. Symmetric, as K⁻¹ is.
+    fn stabilisation<const D: usize>(
+        &self,
+        i: usize,
+        k_inv: &SMatrix<f64, D, D>,
+    ) -> SMatrix<f64, D, D> {
+        match self.control {
+            ZeroEnergyControl::Wan { coefficient } => {
+                (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
+                    + k_inv * (2.0 * self.mu))
+                    * coefficient
+            }
+            ZeroEnergyControl::Silling { coefficient } => {
+                SMatrix::<f64, D, D>::identity()
+                    * (coefficient * self.bond_micromodulus(i) / self.horizons.at(i))
+            }
+            ZeroEnergyControl::None => SMatrix::zeros(),
+        }
+    }
+
+    /// (B, H) of a node from its K⁻¹, C1 and N = Σ ω η⊗ξ w: H = N K⁻¹, F = I + H, P = F S
+    /// (Eq. 9), A = P K⁻¹ (Eq. 8), B = A − C1 H; `None` when F is singular (detached).
+    fn deformed<const D: usize>(
+        &self,
+        k_inv: &SMatrix<f64, D, D>,
+        c1: &SMatrix<f64, D, D>,
+        n: &SMatrix<f64, D, D>,
+    ) -> Option<(SMatrix<f64, D, D>, SMatrix<f64, D, D>)> {
+        let h = n * k_inv;
+        let f = h + SMatrix::<f64, D, D>::identity();
+        let j = determinant(&f);
+        if j == 0.0 || !j.is_finite() {
+            return None;
+        }
+        // P = J σ F⁻ᵀ with σ = J⁻¹ F S Fᵀ, S = C:E: P = F S (see the module notes).
+        let p = f * self.stress(&Self::strain(&h));
+        let a = p * k_inv;
+        let b = match self.control {
+            ZeroEnergyControl::None => a,
+            _ => a - c1 * h,
+        };
+        Some((b, h))
+    }
+
     /// Node i's force state on a bond seen from i (ξ, Y), times ω (the weights φ μ are
     /// applied by the caller): ω (A ξ + C1 z) with z = Y − F ξ = η − H ξ (Eq. 14), written
     /// ω (B ξ + C1 η) with B = A − C1 H and η = Y − ξ; C1 is the node's stabilisation tensor
@@ -314,41 +397,16 @@ impl<const D: usize> Material<D> for Correspondence {
         acc.h += ((b.y - b.xi) * w) * xt;
     }
 
-    /// K⁻¹, H = N K⁻¹, F = I + H, P = F S (Eq. 9), A = P K⁻¹ (Eq. 8), C1 (Eqs. 12–15 or
-    /// Silling 2017) and B = A − C1 H; a detached node gets the zero point state.
+    /// K⁻¹ (`shape_inverse`), C1 (`stabilisation`) and B, H (`deformed`); a detached node gets
+    /// the zero point state.
     fn finish_point(&self, i: usize, acc: Self::Point) -> Self::Point {
-        let (k, n) = (acc.b, acc.h);
         let detached = CorrespondencePoint::default();
-        if Self::singular(&k) {
-            return detached;
-        }
-        let Some(k_inv) = inverse(&k) else {
+        let Some(k_inv) = Self::shape_inverse(&acc.b) else {
             return detached;
         };
-        let h = n * k_inv;
-        let f = h + SMatrix::<f64, D, D>::identity();
-        let j = determinant(&f);
-        if j == 0.0 || !j.is_finite() {
+        let c1 = self.stabilisation(i, &k_inv);
+        let Some((b, h)) = self.deformed(&k_inv, &c1, &acc.h) else {
             return detached;
-        }
-        // P = J σ F⁻ᵀ with σ = J⁻¹ F S Fᵀ, S = C:E: P = F S (see the module notes).
-        let p = f * self.stress(&Self::strain(&h));
-        let a = p * k_inv;
-        let c1 = match self.control {
-            ZeroEnergyControl::Wan { coefficient } => {
-                (SMatrix::<f64, D, D>::identity() * (self.lambda * k_inv.trace())
-                    + k_inv * (2.0 * self.mu))
-                    * coefficient
-            }
-            ZeroEnergyControl::Silling { coefficient } => {
-                SMatrix::<f64, D, D>::identity()
-                    * (coefficient * self.bond_micromodulus(i) / self.horizons.at(i))
-            }
-            ZeroEnergyControl::None => SMatrix::zeros(),
-        };
-        let b = match self.control {
-            ZeroEnergyControl::None => a,
-            _ => a - c1 * h,
         };
         CorrespondencePoint {
             b,
@@ -409,14 +467,15 @@ impl<const D: usize> Material<D> for Correspondence {
         self.linear_half(pi, sum_xi, sum_eta)
     }
 
-    /// N on four bonds at a time (`simd_correspondence`), K too unless the family carries
-    /// force through exactly the bonds of `previous.shape`, then `finish_point`.
+    /// N on four bonds at a time (`simd_correspondence`) and the node's B and H (`deformed`),
+    /// written over its previous point state; K, K⁻¹, C1 and Σ s ξ too unless the family
+    /// carries force through exactly the bonds (`kept`) they were computed for.
     unsafe fn vector_prepass(
         &self,
         nb: &mut NodeBonds,
         w: &UniformWeights,
-        previous: &Self::Point,
-    ) -> Option<(Self::Point, u64)> {
+        point: &mut Self::Point,
+    ) -> Option<u64> {
         // Under a critical-energy law (`nb.work`) the pre-pass reads only the bond status.
         let law = self.kernel_law::<D>(nb.current.len() / 3)?;
         let family = nb.neighbors.len();
@@ -425,31 +484,53 @@ impl<const D: usize> Material<D> for Correspondence {
         // SAFETY: forwarded from the caller (with FMA, checked by `kernel_law`); `reference`
         // has one position per node.
         let sums = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, large) };
-        let family = family as u64;
-        let shape = match sums.kept {
-            _ if large => SMatrix::from_column_slice(&sums.k),
-            Some(kept) if previous.kept_of == family && previous.kept == kept => previous.shape,
-            _ => {
+        let (i, family) = (nb.i, family as u64);
+        let vector = |v: &[f64]| SVector::<f64, D>::from_fn(|a, _| v[a]);
+        // The positions the force kernels read from this record, a detached node's too.
+        point.y = vector(&nb.current[3 * i..]);
+        point.x = vector(&self.reference[3 * i..]);
+        // A detached node: no force state, nothing kept to reuse (its C1 is zero), its
+        // positions still read by its neighbours.
+        let detach = |p: &mut CorrespondencePoint<D>| {
+            *p = CorrespondencePoint {
+                y: p.y,
+                x: p.x,
+                ..Default::default()
+            }
+        };
+        let reuse =
+            matches!(sums.kept, Some(kept) if point.kept_of == family && point.kept == kept);
+        if !reuse {
+            let again;
+            let (k, sum_xi) = if large {
+                (&sums.k, &sums.sum_xi)
+            } else {
                 // The status is now decided: this pass breaks nothing and sums the same N.
                 let s0 = nb.s0.take();
                 // SAFETY: as above.
-                let k = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, true) }.k;
+                again = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, true) };
                 nb.s0 = s0;
-                SMatrix::from_column_slice(&k)
-            }
-        };
-        let acc = CorrespondencePoint {
-            b: shape,
-            h: SMatrix::from_column_slice(&sums.n),
-            ..Default::default()
-        };
-        let point = CorrespondencePoint {
-            shape,
-            kept: sums.kept.unwrap_or_default(),
-            kept_of: if sums.kept.is_some() { family } else { 0 },
-            ..Material::<D>::finish_point(self, nb.i, acc)
-        };
-        Some((point, sums.broke))
+                (&again.k, &again.sum_xi)
+            };
+            let Some(k_inv) = Self::shape_inverse(&SMatrix::from_column_slice(k)) else {
+                detach(point);
+                return Some(sums.broke);
+            };
+            point.shape_inverse = k_inv;
+            point.c1 = self.stabilisation(i, &k_inv);
+            point.shape_xi = vector(sum_xi);
+            point.kept = sums.kept.unwrap_or_default();
+            point.kept_of = if sums.kept.is_some() { family } else { 0 };
+        }
+        match self.deformed(
+            &point.shape_inverse,
+            &point.c1,
+            &SMatrix::from_column_slice(&sums.n),
+        ) {
+            Some((b, h)) => (point.b, point.h) = (b, h),
+            None => detach(point),
+        }
+        Some(sums.broke)
     }
 
     /// The other halves and the own-half sums on four bonds at a time, then
@@ -465,7 +546,7 @@ impl<const D: usize> Material<D> for Correspondence {
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
         // SAFETY: `CorrespondencePoint` is `repr(C)` of f64 and u64 fields only (no padding),
-        // starting with the D×D matrices B and C1.
+        // laid out as `simd_correspondence::RECORD_*` (checked below at compile time).
         let flat = unsafe {
             std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
         };
@@ -480,16 +561,12 @@ impl<const D: usize> Material<D> for Correspondence {
                 simd_correspondence::correspondence_force_work(nb, &law, w, &energy, flat, stride)
             });
         }
-        // SAFETY: forwarded from the caller.
-        let (other, sx, se) =
+        // SAFETY: forwarded from the caller; the points are this evaluation's, from
+        // `vector_prepass` (which runs whenever this does: the same `kernel_law`).
+        let (other, sum_eta) =
             unsafe { simd_correspondence::correspondence_force(nb, &law, w, flat, stride) };
-        let own = Material::<D>::own_half_force(
-            self,
-            nb.i,
-            &points[nb.i],
-            &Vector::<D>::from_fn(|a, _| sx[a]),
-            &Vector::<D>::from_fn(|a, _| se[a]),
-        );
+        let pi = &points[nb.i];
+        let own = self.linear_half(pi, &pi.shape_xi, &Vector::<D>::from_fn(|a, _| sum_eta[a]));
         Some(([other[0] + own[0], other[1] + own[1], other[2] + own[2]], 0))
     }
 

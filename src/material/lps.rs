@@ -244,18 +244,16 @@ impl<const D: usize> Material<D> for Lps {
         &self,
         nb: &mut NodeBonds,
         w: &UniformWeights,
-        _previous: &LpsPoint,
-    ) -> Option<(LpsPoint, u64)> {
+        point: &mut LpsPoint,
+    ) -> Option<u64> {
         if nb.softening.is_some() || nb.dim != 3 {
             return None; // no LPS kernel for softening, nor a 2D pre-pass kernel
         }
         let law = self.law()?;
         // SAFETY: forwarded from the caller.
         let (sum, broke) = unsafe { simd::lps_dilatation_sum(nb, &law, w) };
-        Some((
-            Material::<D>::finish_point(self, nb.i, LpsPoint { theta: sum }),
-            broke,
-        ))
+        *point = Material::<D>::finish_point(self, nb.i, LpsPoint { theta: sum });
+        Some(broke)
     }
 
     unsafe fn vector_force(

@@ -254,9 +254,10 @@ pub trait Material<const D: usize>: Sync + Send {
     fn density(&self, i: usize) -> f64;
 
     /// Optional AVX2 pre-pass of one node (3D, uniform grid, one critical stretch, or the
-    /// uniform law `nb` carries): its point state and the bonds it broke, or `None` to use the
-    /// generic loop. `previous` is the node's point state from the last evaluation (the
-    /// default before the first), which a model may reuse parts of.
+    /// uniform law `nb` carries): writes its point state over `point`, the node's state from
+    /// the last evaluation (the default before the first; a model may reuse parts of it), and
+    /// returns the bonds it broke; or `None`, leaving `point` as it was, to use the generic
+    /// loop.
     ///
     /// # Safety
     /// `simd::available()` and every neighbour index below `nb.current.len() / 3`.
@@ -264,8 +265,8 @@ pub trait Material<const D: usize>: Sync + Send {
         &self,
         _nb: &mut NodeBonds,
         _w: &UniformWeights,
-        _previous: &Self::Point,
-    ) -> Option<(Self::Point, u64)> {
+        _point: &mut Self::Point,
+    ) -> Option<u64> {
         None
     }
 

@@ -62,14 +62,24 @@ impl CorrespondenceLaw<'_> {
     }
 }
 
+/// Where the force kernels find a node's entries in its point record (3D, in f64 words; the
+/// layout of `CorrespondencePoint`, checked against these at compile time): B column-major
+/// from 0, C1 from `RECORD_C1`, the current position from `RECORD_Y`, the reference position
+/// from `RECORD_X`. The kernels read up to word `RECORD_READ` (exclusive) of a record.
+pub const RECORD_C1: usize = 9;
+pub const RECORD_Y: usize = 18;
+pub const RECORD_X: usize = 21;
+pub const RECORD_READ: usize = 24;
+
 /// Families of up to this many bonds get `Sums::kept`.
 pub const KEPT_BITS: usize = 256;
 
 /// What the pre-pass of a node sums.
 #[derive(Debug, Clone, Copy)]
 pub struct Sums {
-    /// K = Σ ω ξ⊗ξ w, column-major (zero unless asked for).
+    /// K = Σ ω ξ⊗ξ w, column-major, and Σ s ξ (s = ω φ V; both zero unless asked for).
     pub k: [f64; 9],
+    pub sum_xi: [f64; 3],
     /// N = Σ ω η⊗ξ w, column-major.
     pub n: [f64; 9],
     /// Bonds broken by this pass.
@@ -79,8 +89,8 @@ pub struct Sums {
     pub kept: Option<[u64; 4]>,
 }
 
-/// Pre-pass of node i: N (and K if `with_k`; column-major 3×3) over its intact bonds,
-/// deciding failure like the generic loop, and which bonds carried force.
+/// Pre-pass of node i: N (and K and Σ s ξ if `with_k`; column-major 3×3) over its
+/// intact bonds, deciding failure like the generic loop, and which bonds carried force.
 ///
 /// # Safety
 /// `simd::fma_available()`; every neighbour index below `nb.current.len() / 3` and
@@ -107,19 +117,21 @@ pub unsafe fn correspondence_sums(
     unreachable!("fma_available() is false off x86-64")
 }
 
-/// Force pass of node i: (Σ other halves, Σ s ξ, Σ s η) with s = ω φ V over its intact bonds;
-/// `points` holds each node's point state as `stride` f64 starting with B then C1 (column-major
-/// 3×3 each).
+/// Force pass of node i: the sum of the other halves ω φ V (B_j ξ + C1_j η) over its intact
+/// bonds; `points` holds each node's point state as `stride` f64 laid out as the `RECORD_*`
+/// offsets say, from this evaluation's pre-pass (C1 symmetric: the kernels read its lower
+/// triangle).
 ///
 /// # Safety
-/// As for `correspondence_sums`; `points.len() >= stride * nodes` and `stride >= 18`.
+/// As for `correspondence_sums`; `points.len() >= stride * nodes` and
+/// `stride >= RECORD_READ`.
 pub unsafe fn correspondence_force(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
     w: &UniformWeights,
     points: &[f64],
     stride: usize,
-) -> ([f64; 3], [f64; 3], [f64; 3]) {
+) -> ([f64; 3], [f64; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
         let hhb = w.rule == PartialVolume::Hhb;
@@ -221,22 +233,61 @@ mod avx {
         (_mm256_unpacklo_pd(even, odd), _mm256_unpackhi_pd(even, odd))
     }
 
-    /// The entries of the neighbours' B and C1 (0..9 and 9..18 of their point states,
-    /// column-major), two at a time, one lane per neighbour: calls `add(row, column, entries,
-    /// is_c1)` for each in order (C1 only with zero-energy control).
-    #[inline(always)]
-    unsafe fn neighbour_entries<const CONTROL: bool>(
+    /// The neighbours' current and reference positions (y, x) from their records, one lane
+    /// per neighbour, and with zero-energy control C1's entry (2, 2), which shares a 128-bit
+    /// pair with y₀.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn positions<const CONTROL: bool>(
         p: &[*const f64; 4],
-        mut add: impl FnMut(usize, usize, __m256d, bool),
+    ) -> ([__m256d; 3], [__m256d; 3], __m256d) {
+        if CONTROL {
+            let (c22, y0) = pair(p, RECORD_Y - 1);
+            let (y1, y2) = pair(p, RECORD_Y + 1);
+            let (x0, _) = pair(p, RECORD_X);
+            let (x1, x2) = pair(p, RECORD_X + 1);
+            ([y0, y1, y2], [x0, x1, x2], c22)
+        } else {
+            let (y0, y1) = pair(p, RECORD_Y);
+            let (y2, x0) = pair(p, RECORD_Y + 2);
+            let (x1, x2) = pair(p, RECORD_X + 1);
+            ([y0, y1, y2], [x0, x1, x2], _mm256_setzero_pd())
+        }
+    }
+
+    /// acc += B u + C1 v with the neighbours' B and C1 (`c22` from `positions`), one lane per
+    /// neighbour. C1 is symmetric (λ tr(K⁻¹) I + 2μ K⁻¹ of a symmetric K, or c_s I), so only
+    /// its lower triangle is read: 11 pairs of entries instead of 13 with the positions.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn add_matrices<const CONTROL: bool>(
+        p: &[*const f64; 4],
+        u: &[__m256d; 3],
+        v: &[__m256d; 3],
+        c22: __m256d,
+        acc: &mut [__m256d; 3],
     ) {
-        let pairs = if CONTROL { 9 } else { 5 };
-        for q in 0..pairs {
+        // B column-major: entry m is (m % 3, m / 3).
+        for q in 0..4 {
             let (e0, e1) = pair(p, 2 * q);
             for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
-                if m < 9 || CONTROL {
-                    add(m % 3, (m % 9) / 3, e, m >= 9);
-                }
+                acc[m % 3] = _mm256_fmadd_pd(e, u[m / 3], acc[m % 3]);
             }
+        }
+        let (b22, c00) = pair(p, 8);
+        acc[2] = _mm256_fmadd_pd(b22, u[2], acc[2]);
+        if CONTROL {
+            let (c10, c20) = pair(p, RECORD_C1 + 1);
+            let (c11, c21) = pair(p, RECORD_C1 + 4);
+            acc[0] = _mm256_fmadd_pd(c00, v[0], acc[0]);
+            acc[0] = _mm256_fmadd_pd(c10, v[1], acc[0]);
+            acc[0] = _mm256_fmadd_pd(c20, v[2], acc[0]);
+            acc[1] = _mm256_fmadd_pd(c10, v[0], acc[1]);
+            acc[1] = _mm256_fmadd_pd(c11, v[1], acc[1]);
+            acc[1] = _mm256_fmadd_pd(c21, v[2], acc[1]);
+            acc[2] = _mm256_fmadd_pd(c20, v[0], acc[2]);
+            acc[2] = _mm256_fmadd_pd(c21, v[1], acc[2]);
+            acc[2] = _mm256_fmadd_pd(c22, v[2], acc[2]);
         }
     }
 
@@ -383,6 +434,7 @@ mod avx {
         let mut k = [zero; 6];
         // N column-major: entry (r, c) at 3c + r, as `SMatrix`.
         let mut n = [zero; 9];
+        let mut sxi = [zero; 3];
         let s0 = nb.s0.unwrap_or(f64::INFINITY);
         let near = _mm256_set1_pd((1.0 + s0) * (1.0 + s0) * (1.0 - 1e-12));
         let s0 = _mm256_set1_pd(s0);
@@ -412,6 +464,9 @@ mod avx {
                 k[3] = _mm256_fmadd_pd(xs[1], xi[1], k[3]);
                 k[4] = _mm256_fmadd_pd(xs[2], xi[1], k[4]);
                 k[5] = _mm256_fmadd_pd(xs[2], xi[2], k[5]);
+                for a in 0..3 {
+                    sxi[a] = _mm256_add_pd(sxi[a], xs[a]);
+                }
             }
             for r in 0..3 {
                 let es = _mm256_mul_pd(_mm256_sub_pd(d[r], xi[r]), s);
@@ -434,12 +489,16 @@ mod avx {
         for e in 0..9 {
             ns[e] = sum(n[e]);
         }
+        let mut sx = sxi.map(|v| sum(v));
         broke += tail(nb, b, |b, j, l, d, _| {
             kept[(b / 64) & 3] |= 1 << (b % 64);
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi(i, j);
             for r in 0..3 {
                 let (xs, es) = (xi[r] * s, (d[r] - xi[r]) * s);
+                if WITH_K {
+                    sx[r] += xs;
+                }
                 for c in 0..3 {
                     if WITH_K {
                         ks[3 * c + r] += xs * xi[c];
@@ -450,6 +509,7 @@ mod avx {
         });
         Sums {
             k: ks,
+            sum_xi: sx,
             n: ns,
             broke,
             kept: (nb.neighbors.len() <= KEPT_BITS).then_some(kept),
@@ -463,25 +523,24 @@ mod avx {
         w: &UniformWeights,
         points: &[f64],
         stride: usize,
-    ) -> ([f64; 3], [f64; 3], [f64; 3]) {
+    ) -> ([f64; 3], [f64; 3]) {
         debug_assert!(
             nb.s0.is_none(),
             "the correspondence force pass does not decide failure"
         );
         let i = nb.i;
-        let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
-        let yi = own(current, i);
-        let xi_i = own(reference, i);
+        let yi = own(nb.current.as_ptr(), i);
+        let xi_i = own(law.reference.as_ptr(), i);
         let zero = _mm256_setzero_pd();
         // One sum per row for both the B and the C1 terms: fewer live registers (the sums
         // spilled to the stack when the B and C1 terms had their own).
-        let mut other = [zero; 3];
-        let (mut sxi, mut seta) = ([zero; 3], [zero; 3]);
+        let (mut other, mut seta) = ([zero; 3], [zero; 3]);
         let mut b = 0;
         let base = points.as_ptr();
         while b + 4 <= nb.neighbors.len() {
-            let j = neighbours(nb, b);
-            let d = rows(current, j, &yi);
+            let p = neighbours(nb, b).map(|k| base.add(k * stride));
+            let (y, x, c22) = positions::<CONTROL>(&p);
+            let d: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = _mm256_and_pd(
@@ -489,49 +548,30 @@ mod avx {
                 _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
             );
             let s = weight::<HHB, INVERSE>(law, w, l, keep);
-            let xi = rows(reference, j, &xi_i);
-            let xs = [
-                _mm256_mul_pd(xi[0], s),
-                _mm256_mul_pd(xi[1], s),
-                _mm256_mul_pd(xi[2], s),
-            ];
-            let es = [
-                _mm256_mul_pd(_mm256_sub_pd(d[0], xi[0]), s),
-                _mm256_mul_pd(_mm256_sub_pd(d[1], xi[1]), s),
-                _mm256_mul_pd(_mm256_sub_pd(d[2], xi[2]), s),
-            ];
+            let xi: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
+            let xs = xi.map(|v| _mm256_mul_pd(v, s));
+            let es: [__m256d; 3] =
+                std::array::from_fn(|a| _mm256_mul_pd(_mm256_sub_pd(d[a], xi[a]), s));
             for a in 0..3 {
-                sxi[a] = _mm256_add_pd(sxi[a], xs[a]);
                 seta[a] = _mm256_add_pd(seta[a], es[a]);
             }
-            // The neighbours' B and C1 (entries 0..18 of their point states), two entries
-            // at a time: Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
-            let p = j.map(|k| base.add(k * stride));
-            neighbour_entries::<CONTROL>(&p, |r, c, e, is_c1| {
-                let m = if is_c1 { es[c] } else { xs[c] };
-                other[r] = _mm256_fmadd_pd(e, m, other[r]);
-            });
+            // Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
+            add_matrices::<CONTROL>(&p, &xs, &es, c22, &mut other);
             b += 4;
         }
-        let mut f = [sum(other[0]), sum(other[1]), sum(other[2])];
-        let mut sx = [sum(sxi[0]), sum(sxi[1]), sum(sxi[2])];
-        let mut se = [sum(seta[0]), sum(seta[1]), sum(seta[2])];
+        let mut f = other.map(|v| sum(v));
+        let mut se = seta.map(|v| sum(v));
         tail(nb, b, |_, j, l, d, _| {
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi(i, j);
             let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
-            let p = &points[j * stride..j * stride + 18];
+            let v = linear_half::<CONTROL>(&points[j * stride..j * stride + 18], &xi, &eta);
             for r in 0..3 {
-                sx[r] += xi[r] * s;
                 se[r] += eta[r] * s;
-                let mut v = p[r] * xi[0] + p[3 + r] * xi[1] + p[6 + r] * xi[2];
-                if CONTROL {
-                    v += p[9 + r] * eta[0] + p[12 + r] * eta[1] + p[15 + r] * eta[2];
-                }
-                f[r] += v * s;
+                f[r] += v[r] * s;
             }
         });
-        (f, sx, se)
+        (f, se)
     }
 
     /// B ξ + C1 η of one bond from the 18 entries `m` (B then C1, column-major), in the
@@ -581,16 +621,18 @@ mod avx {
         stride: usize,
     ) -> ([f64; 3], u64) {
         let i = nb.i;
-        let (current, reference, previous) = (
-            nb.current.as_ptr(),
-            law.reference.as_ptr(),
-            nb.previous.as_ptr(),
+        let previous = nb.previous.as_ptr();
+        let (yi, xi_i, pi) = (
+            own(nb.current.as_ptr(), i),
+            own(law.reference.as_ptr(), i),
+            own(previous, i),
         );
-        let (yi, xi_i, pi) = (own(current, i), own(reference, i), own(previous, i));
         let base = points.as_ptr();
-        // Node i's B and C1, broadcast.
-        let mine: [__m256d; 18] =
-            std::array::from_fn(|m| _mm256_set1_pd(*base.add(i * stride + m)));
+        // Node i's B and C1's lower triangle (C1 is symmetric, see `add_matrices`), broadcast.
+        let entry = |m: usize| _mm256_set1_pd(*base.add(i * stride + m));
+        let mine_b: [__m256d; 9] = std::array::from_fn(entry);
+        let c1 = |r: usize, c: usize| entry(RECORD_C1 + 3 * r.min(c) + r.max(c));
+        let mine_c1 = [c1(0, 0), c1(1, 0), c1(2, 0), c1(1, 1), c1(2, 1), c1(2, 2)];
         let zero = _mm256_setzero_pd();
         let (half, wc, volume) = (
             _mm256_set1_pd(0.5),
@@ -602,7 +644,9 @@ mod avx {
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
-            let d = rows(current, j, &yi);
+            let p = j.map(|k| base.add(k * stride));
+            let (y, x, c22) = positions::<CONTROL>(&p);
+            let d: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             // Intact and of non-zero length: the bonds the generic loop records work for.
@@ -610,31 +654,24 @@ mod avx {
                 intact(nb.status, b),
                 _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
             );
-            let xi = rows(reference, j, &xi_i);
-            let eta = [
-                _mm256_sub_pd(d[0], xi[0]),
-                _mm256_sub_pd(d[1], xi[1]),
-                _mm256_sub_pd(d[2], xi[2]),
-            ];
-            // Both halves' B ξ + C1 η: node i's from its broadcast entries, the neighbours'
-            // two entries at a time.
+            let xi: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
+            let eta: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
+            // Both halves' B ξ + C1 η: node i's from its broadcast entries, then the
+            // neighbours'.
             let mut t = [zero; 3];
             for r in 0..3 {
-                let mut v = _mm256_mul_pd(mine[r], xi[0]);
-                v = _mm256_fmadd_pd(mine[3 + r], xi[1], v);
-                v = _mm256_fmadd_pd(mine[6 + r], xi[2], v);
+                let mut v = _mm256_mul_pd(mine_b[r], xi[0]);
+                v = _mm256_fmadd_pd(mine_b[3 + r], xi[1], v);
+                v = _mm256_fmadd_pd(mine_b[6 + r], xi[2], v);
                 if CONTROL {
-                    v = _mm256_fmadd_pd(mine[9 + r], eta[0], v);
-                    v = _mm256_fmadd_pd(mine[12 + r], eta[1], v);
-                    v = _mm256_fmadd_pd(mine[15 + r], eta[2], v);
+                    let lower = |c: usize| mine_c1[[0, 1, 2, 1, 3, 4, 2, 4, 5][3 * r + c]];
+                    v = _mm256_fmadd_pd(lower(0), eta[0], v);
+                    v = _mm256_fmadd_pd(lower(1), eta[1], v);
+                    v = _mm256_fmadd_pd(lower(2), eta[2], v);
                 }
                 t[r] = v;
             }
-            let p = j.map(|k| base.add(k * stride));
-            neighbour_entries::<CONTROL>(&p, |r, c, e, is_c1| {
-                let v = if is_c1 { eta[c] } else { xi[c] };
-                t[r] = _mm256_fmadd_pd(e, v, t[r]);
-            });
+            add_matrices::<CONTROL>(&p, &xi, &eta, c22, &mut t);
             // The pair force T = ω φ (both halves), the generic `pair_force` without V.
             let wp = omega_phi::<HHB, INVERSE>(law, w, l);
             let force = [

@@ -451,10 +451,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                                 nb = nb.with_work(law, history);
                             }
                             // SAFETY: AVX2 is available and neighbour indices are in bounds.
-                            if let Some((p, nb_broken)) =
-                                unsafe { material.vector_prepass(&mut nb, w, &points[k]) }
+                            if let Some(nb_broken) =
+                                unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
                             {
-                                points[k] = p;
                                 broke += nb_broken;
                                 continue;
                             }

@@ -9,6 +9,7 @@ use peridyn::damage::softening::{Shape, SofteningParameters};
 use peridyn::damage::{CriticalEnergy, CriticalStretch, Damage, PerNode, Softening};
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile};
 use peridyn::math::Vector;
+use peridyn::state::BROKEN;
 
 fn noise(k: usize) -> f64 {
     let x = (k as u64)
@@ -234,7 +235,9 @@ fn correspondence_kernels_match_the_generic_loop() {
 /// The correspondence pre-pass reuses a node's shape tensor K while the bonds that carry force
 /// are the same: a field that breaks bonds, then every bond intact again (as when a rejected
 /// adaptive step restores the state) under a second field that breaks others, then that field
-/// again (K reused). Each evaluation matches the generic loop, which always sums K.
+/// again (K reused), then with the centre node cut from all but two neighbours (detached: its
+/// neighbours still read its positions from its point record). Each evaluation matches the
+/// generic loop, which always sums K.
 #[test]
 fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
     use peridyn::material::correspondence::ZeroEnergyControl;
@@ -257,10 +260,27 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
         );
         sim.engine.vector_kernels = vector;
         let body = sim.body.clone();
+        let centre = body.len() / 2;
         let mut out = Vec::new();
-        for (seed, restore) in [(0, false), (1, true), (1, false)] {
+        for (seed, restore, cut) in [
+            (0, false, false),
+            (1, true, false),
+            (1, false, false),
+            (1, false, true),
+        ] {
             if restore {
                 sim.state.status.fill(0);
+            }
+            if cut {
+                for b in sim.bonds.family(centre).skip(2) {
+                    let j = sim.bonds.neighbors[b] as usize;
+                    sim.state.status[b] = BROKEN;
+                    let back = sim
+                        .bonds
+                        .family(j)
+                        .find(|&c| sim.bonds.neighbors[c] as usize == centre);
+                    sim.state.status[back.unwrap()] = BROKEN;
+                }
             }
             for i in 0..body.len() {
                 let u = Vector::<3>::from_fn(|k, _| {
@@ -269,6 +289,13 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
                 sim.state.set_displacement(&body, i, u);
             }
             sim.refresh_forces().unwrap();
+            if cut {
+                let p = &sim.engine.points()[centre];
+                assert!(
+                    p.b.iter().chain(p.c1.iter()).all(|&v| v == 0.0),
+                    "not detached"
+                );
+            }
             out.push((sim.state.force.clone(), sim.state.status.clone()));
         }
         out
