@@ -291,6 +291,19 @@ mod avx {
         }
     }
 
+    /// Prefetches the three cache lines of each record the force kernels read (words
+    /// 0..`RECORD_READ` of a 64-byte-aligned record).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn prefetch_records(points: *const f64, stride: usize, n: [usize; 4]) {
+        for k in n {
+            let record = points.add(k * stride) as *const i8;
+            _mm_prefetch::<_MM_HINT_T0>(record);
+            _mm_prefetch::<_MM_HINT_T0>(record.add(64));
+            _mm_prefetch::<_MM_HINT_T0>(record.add(128));
+        }
+    }
+
     /// (x, y, z) of the nodes `n` in the flat positions `base`, less `origin`, one lane per
     /// node: (x, y) and (y, z) pairs, so that no load reads past a node.
     #[target_feature(enable = "avx2,fma")]
@@ -645,6 +658,11 @@ mod avx {
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
             let p = j.map(|k| base.add(k * stride));
+            // The work records stream through the cache and evict the neighbours' records,
+            // whose loads the loop then waited on: fetch those of two groups on.
+            if b + 12 <= nb.neighbors.len() {
+                prefetch_records(base, stride, neighbours(nb, b + 8));
+            }
             let (y, x, c22) = positions::<CONTROL>(&p);
             let d: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
