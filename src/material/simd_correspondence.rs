@@ -279,15 +279,24 @@ mod avx {
         if CONTROL {
             let (c10, c20) = pair(p, RECORD_C1 + 1);
             let (c11, c21) = pair(p, RECORD_C1 + 4);
-            acc[0] = _mm256_fmadd_pd(c00, v[0], acc[0]);
-            acc[0] = _mm256_fmadd_pd(c10, v[1], acc[0]);
-            acc[0] = _mm256_fmadd_pd(c20, v[2], acc[0]);
-            acc[1] = _mm256_fmadd_pd(c10, v[0], acc[1]);
-            acc[1] = _mm256_fmadd_pd(c11, v[1], acc[1]);
-            acc[1] = _mm256_fmadd_pd(c21, v[2], acc[1]);
-            acc[2] = _mm256_fmadd_pd(c20, v[0], acc[2]);
-            acc[2] = _mm256_fmadd_pd(c21, v[1], acc[2]);
-            acc[2] = _mm256_fmadd_pd(c22, v[2], acc[2]);
+            add_symmetric(&[c00, c10, c20, c11, c21, c22], v, acc);
+        }
+    }
+
+    /// Words of C1's lower triangle (0,0), (1,0), (2,0), (1,1), (2,1), (2,2) in a record,
+    /// from `RECORD_C1` (column-major).
+    const C1_LOWER: [usize; 6] = [0, 1, 2, 4, 5, 8];
+
+    /// acc += C v for a symmetric C given by its lower triangle (the order of `C1_LOWER`),
+    /// each row in column order.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn add_symmetric(c: &[__m256d; 6], v: &[__m256d; 3], acc: &mut [__m256d; 3]) {
+        let rows = [[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]];
+        for (r, row) in rows.iter().enumerate() {
+            for (e, v) in row.iter().zip(v) {
+                acc[r] = _mm256_fmadd_pd(*e, *v, acc[r]);
+            }
         }
     }
 
@@ -644,8 +653,7 @@ mod avx {
         // Node i's B and C1's lower triangle (C1 is symmetric, see `add_matrices`), broadcast.
         let entry = |m: usize| _mm256_set1_pd(*base.add(i * stride + m));
         let mine_b: [__m256d; 9] = std::array::from_fn(entry);
-        let c1 = |r: usize, c: usize| entry(RECORD_C1 + 3 * r.min(c) + r.max(c));
-        let mine_c1 = [c1(0, 0), c1(1, 0), c1(2, 0), c1(1, 1), c1(2, 1), c1(2, 2)];
+        let mine_c1 = C1_LOWER.map(|m| entry(RECORD_C1 + m));
         let zero = _mm256_setzero_pd();
         let (half, wc, volume) = (
             _mm256_set1_pd(0.5),
@@ -676,18 +684,13 @@ mod avx {
             let eta: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
             // Both halves' B ξ + C1 η: node i's from its broadcast entries, then the
             // neighbours'.
-            let mut t = [zero; 3];
-            for r in 0..3 {
-                let mut v = _mm256_mul_pd(mine_b[r], xi[0]);
-                v = _mm256_fmadd_pd(mine_b[3 + r], xi[1], v);
-                v = _mm256_fmadd_pd(mine_b[6 + r], xi[2], v);
-                if CONTROL {
-                    let lower = |c: usize| mine_c1[[0, 1, 2, 1, 3, 4, 2, 4, 5][3 * r + c]];
-                    v = _mm256_fmadd_pd(lower(0), eta[0], v);
-                    v = _mm256_fmadd_pd(lower(1), eta[1], v);
-                    v = _mm256_fmadd_pd(lower(2), eta[2], v);
-                }
-                t[r] = v;
+            let mut t: [__m256d; 3] = std::array::from_fn(|r| {
+                let v = _mm256_mul_pd(mine_b[r], xi[0]);
+                let v = _mm256_fmadd_pd(mine_b[3 + r], xi[1], v);
+                _mm256_fmadd_pd(mine_b[6 + r], xi[2], v)
+            });
+            if CONTROL {
+                add_symmetric(&mine_c1, &eta, &mut t);
             }
             add_matrices::<CONTROL>(&p, &xi, &eta, c22, &mut t);
             // The pair force T = ω φ (both halves), the generic `pair_force` without V.

@@ -273,13 +273,8 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
             }
             if cut {
                 for b in sim.bonds.family(centre).skip(2) {
-                    let j = sim.bonds.neighbors[b] as usize;
                     sim.state.status[b] = BROKEN;
-                    let back = sim
-                        .bonds
-                        .family(j)
-                        .find(|&c| sim.bonds.neighbors[c] as usize == centre);
-                    sim.state.status[back.unwrap()] = BROKEN;
+                    sim.state.status[sim.bonds.reverse(centre, b).unwrap()] = BROKEN;
                 }
             }
             for i in 0..body.len() {
