@@ -114,7 +114,7 @@ fn measure_with<const D: usize, M: Material<D>>(
         .build()
         .expect("thread pool");
     pool.install(|| {
-        let history = damage.bytes_per_bond(M::CENTRAL);
+        let history = damage.bytes_per_bond(crate::solver::bond_force::<D, M>());
         let mut sim = Simulation::new(
             body,
             bonds,

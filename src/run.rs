@@ -390,7 +390,7 @@ pub fn prepare<const D: usize, M: Material<D>>(
         build_time,
         ..
     } = model;
-    let history_bytes = damage.bytes_per_bond(M::CENTRAL);
+    let history_bytes = damage.bytes_per_bond(crate::solver::bond_force::<D, M>());
     let grid = crate::grid::grid_report(ld, &body, &bonds);
     let mut sim = Simulation::new(
         body,

@@ -46,10 +46,12 @@ impl CriticalEnergy {
 
 /// The work record of a bond, [w, f, e] (central force) or [w, F_x, F_y, F_z]: the
 /// trapezoidal rule from the previous evaluation, which then becomes the new one. The first
-/// evaluation starts from the unloaded bond (f = e = 0, F = 0).
+/// evaluation starts from the unloaded bond (f = e = 0, F = 0). Returns the work w; a
+/// linear bond's work in closed form (`Work::Stored`) needs no record.
 #[inline(always)]
-pub fn accumulate_work(work: Work, h: &mut [f64]) {
+pub fn accumulate_work(work: Work, h: &mut [f64]) -> f64 {
     match work {
+        Work::Stored { energy } => return energy,
         Work::Along { force, extension } => {
             let (f_prev, e_prev) = unpack(h[1]);
             h[0] += 0.5 * (f_prev + force) * (extension - e_prev);
@@ -65,6 +67,7 @@ pub fn accumulate_work(work: Work, h: &mut [f64]) {
             h[3] = force[2];
         }
     }
+    h[0]
 }
 
 impl CriticalEnergy {
@@ -78,7 +81,10 @@ impl CriticalEnergy {
 }
 
 /// A critical-energy law with one w_c for every node: both halves break together. The engine
-/// runs this form when it can.
+/// runs this form when it can. With a linear-bond material (PMB) it takes the work in closed
+/// form, w = ½ f e (`Work::Stored`: what the trapezoidal record would hold, without its
+/// rounding), and stores nothing per bond; the law with w_c per node keeps the record,
+/// because a bond whose one half broke first is no longer the same linear spring.
 #[derive(Debug, Clone, Copy)]
 pub struct UniformCriticalEnergy {
     pub wc: f64,
@@ -88,6 +94,8 @@ pub struct UniformCriticalEnergy {
 impl DamageLaw for UniformCriticalEnergy {
     const HISTORY: usize = CriticalEnergy::HISTORY;
     const HISTORY_VECTOR: usize = CriticalEnergy::HISTORY_VECTOR;
+    const CLOSED_FORM_WORK: bool = true;
+    const HISTORY_LINEAR: usize = 0;
     const ON_WORK: bool = true;
     const HALVES_TOGETHER: bool = true;
 
@@ -96,13 +104,13 @@ impl DamageLaw for UniformCriticalEnergy {
     }
 
     #[inline(always)]
-    fn record_work(&self, work: Work, h: &mut [f64]) {
-        accumulate_work(work, h);
+    fn record_work(&self, work: Work, h: &mut [f64]) -> f64 {
+        accumulate_work(work, h)
     }
 
     #[inline(always)]
-    fn fails_on_work(&self, _node: usize, extension: f64, weight: f64, h: &[f64]) -> bool {
-        h[0] >= self.wc * weight && !(self.tension_only && extension <= 0.0)
+    fn fails_on_work(&self, _node: usize, extension: f64, weight: f64, work: f64) -> bool {
+        work >= self.wc * weight && !(self.tension_only && extension <= 0.0)
     }
 
     #[inline(always)]
@@ -117,8 +125,8 @@ impl DamageLaw for UniformCriticalEnergy {
         history: &mut [f64],
         status: &mut u8,
     ) -> u64 {
-        self.record_work(work, history);
-        if !protected && self.fails_on_work(i, extension, weight, history) {
+        let w = self.record_work(work, history);
+        if !protected && self.fails_on_work(i, extension, weight, w) {
             *status = super::BROKEN;
             1
         } else {
@@ -148,13 +156,13 @@ impl DamageLaw for CriticalEnergy {
     const ON_WORK: bool = true;
 
     #[inline(always)]
-    fn record_work(&self, work: Work, h: &mut [f64]) {
-        accumulate_work(work, h);
+    fn record_work(&self, work: Work, h: &mut [f64]) -> f64 {
+        accumulate_work(work, h)
     }
 
     #[inline(always)]
-    fn fails_on_work(&self, node: usize, extension: f64, weight: f64, h: &[f64]) -> bool {
-        h[0] >= self.wc.at(node) * weight && !(self.tension_only && extension <= 0.0)
+    fn fails_on_work(&self, node: usize, extension: f64, weight: f64, work: f64) -> bool {
+        work >= self.wc.at(node) * weight && !(self.tension_only && extension <= 0.0)
     }
 }
 

@@ -6,7 +6,7 @@
 //! body's laws need: the largest stretch when a block softens, the work record when a block
 //! breaks on energy. History per bond: [s_max if SOFTENS | work record if WORKS].
 
-use super::{CriticalEnergy, CriticalStretch, DamageLaw, Softening, Stretch, Work};
+use super::{BondForce, CriticalEnergy, CriticalStretch, DamageLaw, Softening, Stretch, Work};
 
 /// One block's law.
 #[derive(Debug, Clone)]
@@ -52,9 +52,13 @@ impl MixedDamage {
             .any(|l| matches!(l, BlockLaw::CriticalEnergy(_)))
     }
 
-    /// f64 words of history per bond, for a central material or not.
-    pub fn history_words(&self, central: bool) -> usize {
-        history_words(self.softens(), self.records_work(), central)
+    /// f64 words of history per bond for a material whose pair force is `force`.
+    pub fn history_words(&self, force: BondForce) -> usize {
+        history_words(
+            self.softens(),
+            self.records_work(),
+            force != BondForce::Vector,
+        )
     }
 
     /// (μ_ij, μ_ji) of a bond entry (see `DamageLaw::factors`).
@@ -68,7 +72,8 @@ impl MixedDamage {
     }
 }
 
-/// History words of a mixed law that softens and/or records work.
+/// History words of a mixed law that softens and/or records work, for a central material or
+/// not (a mixed law keeps the work record for linear bonds too: its halves break apart).
 pub const fn history_words(softens: bool, works: bool, central: bool) -> usize {
     let work = if !works {
         0
@@ -114,18 +119,18 @@ impl<const SOFTENS: bool, const WORKS: bool> DamageLaw for MixedLaws<'_, SOFTENS
     }
 
     #[inline(always)]
-    fn record_work(&self, work: Work, h: &mut [f64]) {
+    fn record_work(&self, work: Work, h: &mut [f64]) -> f64 {
         if WORKS {
-            super::critical_energy::accumulate_work(work, &mut h[Self::WORK]);
+            super::critical_energy::accumulate_work(work, &mut h[Self::WORK])
+        } else {
+            0.0
         }
     }
 
     #[inline(always)]
-    fn fails_on_work(&self, node: usize, extension: f64, weight: f64, h: &[f64]) -> bool {
+    fn fails_on_work(&self, node: usize, extension: f64, weight: f64, work: f64) -> bool {
         match self.0.law(node) {
-            BlockLaw::CriticalEnergy(l) => {
-                WORKS && l.fails_on_work(node, extension, weight, &h[Self::WORK])
-            }
+            BlockLaw::CriticalEnergy(l) => WORKS && l.fails_on_work(node, extension, weight, work),
             _ => false,
         }
     }

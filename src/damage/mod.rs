@@ -26,10 +26,28 @@ pub use crate::per_node::PerNode;
 
 pub use crate::state::{BROKEN, INTACT, OTHER_BROKEN, OWN_BROKEN};
 
+/// What a material's pair force is, as far as the damage laws' records are concerned (the
+/// engine derives it from `Material::CENTRAL` and `Material::LINEAR_BOND`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BondForce {
+    /// Along the bond and a fixed multiple of its extension (PMB).
+    Linear,
+    /// Along the bond (bond-based, LPS).
+    Central,
+    /// In any direction (correspondence).
+    Vector,
+}
+
 /// The pair force of a bond (N/m⁶, weighted by its partial volumes) and the deformation it
 /// works through since the previous evaluation.
 #[derive(Debug, Clone, Copy)]
 pub enum Work {
+    /// The work done on a linear bond (`BondForce::Linear`, both halves intact) since its
+    /// reference state: f = k e with k fixed, so the trapezoidal sum of `Along` telescopes,
+    /// Σ ½ (f_{n−1} + f_n)(e_n − e_{n−1}) = ½ k Σ (e_n² − e_{n−1}²) = ½ f e, along any path.
+    /// This is the bond's micropotential (Foster, Silling & Chen 2011, the bond-based form of
+    /// seed 002's Eq. 6), known without a record.
+    Stored { energy: f64 },
     /// A central force f M: its work is f de, exactly (M·dη = de).
     Along { force: f64, extension: f64 },
     /// Any force: F·dη, with `step` the change of the relative displacement η (padded to 3).
@@ -76,6 +94,12 @@ pub trait DamageLaw: Sync + Send {
     const HISTORY: usize = 0;
     /// The same for other materials (their bond work needs the force vector).
     const HISTORY_VECTOR: usize = Self::HISTORY;
+    /// With a linear-bond material (`BondForce::Linear`) the law takes a bond's work in
+    /// closed form (`Work::Stored`) and keeps no record of it; valid when both halves always
+    /// break together, so that the bond stays linear until it breaks. Its history is then
+    /// `HISTORY_LINEAR` words.
+    const CLOSED_FORM_WORK: bool = false;
+    const HISTORY_LINEAR: usize = Self::HISTORY;
     /// Decides from the stretch, in the first sweep over a node's bonds in a step.
     const ON_STRETCH: bool = false;
     /// Decides from the work done on the bond, in the force sweep.
@@ -97,14 +121,18 @@ pub trait DamageLaw: Sync + Send {
         false
     }
 
-    /// Records the work of the pair force since the previous evaluation.
+    /// Records the work of the pair force since the previous evaluation and returns the work
+    /// done on the bond so far.
     #[inline(always)]
-    fn record_work(&self, _work: Work, _history: &mut [f64]) {}
+    fn record_work(&self, _work: Work, _history: &mut [f64]) -> f64 {
+        0.0
+    }
 
-    /// Whether the half owned by `node` fails after `record_work`; `weight` is the bond's
-    /// quadrature weight φ̄ = ½(φ_ij + φ_ji), which the recorded work carries.
+    /// Whether the half owned by `node` fails with `work` done on the bond (from
+    /// `record_work`); `weight` is the bond's quadrature weight φ̄ = ½(φ_ij + φ_ji), which
+    /// the work carries.
     #[inline(always)]
-    fn fails_on_work(&self, _node: usize, _extension: f64, _weight: f64, _history: &[f64]) -> bool {
+    fn fails_on_work(&self, _node: usize, _extension: f64, _weight: f64, _work: f64) -> bool {
         false
     }
 
@@ -171,14 +199,14 @@ pub trait DamageLaw: Sync + Send {
         history: &mut [f64],
         status: &mut u8,
     ) -> u64 {
-        self.record_work(work, history);
+        let w = self.record_work(work, history);
         if protected {
             return 0;
         }
         break_halves(
             status,
-            self.fails_on_work(i, extension, weight, history),
-            self.fails_on_work(j, extension, weight, history),
+            self.fails_on_work(i, extension, weight, w),
+            self.fails_on_work(j, extension, weight, w),
         )
     }
 
@@ -209,20 +237,18 @@ pub enum Damage {
 }
 
 impl Damage {
-    /// f64 words of history per directed bond, for a central material or not.
-    pub fn history_words(&self, central: bool) -> usize {
-        fn words<L: DamageLaw>(central: bool) -> usize {
-            if central {
-                L::HISTORY
-            } else {
-                L::HISTORY_VECTOR
-            }
-        }
+    /// f64 words of history per directed bond for a material whose pair force is `force`:
+    /// those of the form the engine runs (`ForceEngine::compute`: the uniform form of a
+    /// critical-energy law when it has one).
+    pub fn history_words(&self, force: BondForce) -> usize {
         match self {
-            Damage::CriticalStretch(_) => words::<CriticalStretch>(central),
-            Damage::CriticalEnergy(_) => words::<CriticalEnergy>(central),
-            Damage::Softening(_) => words::<Softening>(central),
-            Damage::Mixed(d) => d.history_words(central),
+            Damage::CriticalStretch(_) => history_words::<CriticalStretch>(force),
+            Damage::CriticalEnergy(d) if d.uniform_form().is_some() => {
+                history_words::<critical_energy::UniformCriticalEnergy>(force)
+            }
+            Damage::CriticalEnergy(_) => history_words::<CriticalEnergy>(force),
+            Damage::Softening(_) => history_words::<Softening>(force),
+            Damage::Mixed(d) => d.history_words(force),
         }
     }
 
@@ -256,9 +282,9 @@ impl Damage {
         }
     }
 
-    /// Bytes per directed bond this law stores (for a central material or not).
-    pub fn bytes_per_bond(&self, central: bool) -> usize {
-        8 * self.history_words(central)
+    /// Bytes per directed bond this law stores for a material whose pair force is `force`.
+    pub fn bytes_per_bond(&self, force: BondForce) -> usize {
+        8 * self.history_words(force)
     }
 
     /// A critical-stretch law that never breaks a bond.
@@ -305,6 +331,16 @@ impl From<Softening> for Damage {
 impl From<MixedDamage> for Damage {
     fn from(d: MixedDamage) -> Self {
         Damage::Mixed(d)
+    }
+}
+
+/// f64 words of history per directed bond of law `L` for a material whose pair force is
+/// `force`.
+pub const fn history_words<L: DamageLaw>(force: BondForce) -> usize {
+    match force {
+        BondForce::Linear if L::CLOSED_FORM_WORK => L::HISTORY_LINEAR,
+        BondForce::Linear | BondForce::Central => L::HISTORY,
+        BondForce::Vector => L::HISTORY_VECTOR,
     }
 }
 

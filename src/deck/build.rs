@@ -7,11 +7,15 @@ use super::{DeckError, DeckIssue, LoadedDeck};
 use crate::body::Body;
 use crate::bonds::search::{build_bonds, estimate_bonds};
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
+use crate::damage::critical_energy::UniformCriticalEnergy;
 use crate::damage::mixed::BlockLaw;
 use crate::damage::porosity::Porosity;
 use crate::damage::softening::{Shape as SofteningShape, SofteningParameters};
 use crate::damage::DamageLaw;
-use crate::damage::{CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode, Softening};
+use crate::damage::{
+    history_words, BondForce, CriticalEnergy, CriticalStretch, Damage, MixedDamage, PerNode,
+    Softening,
+};
 use crate::discretize::gmsh::read_gmsh;
 use crate::discretize::{boundary_layer, lattice, NodeCloud};
 use crate::geometry::point_cloud::read_point_cloud;
@@ -368,10 +372,15 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         )
     } else {
         let m = deck.material_at(&materials[0]);
-        damage_history_words(
-            &m.damage(),
-            !matches!(m, MaterialDeck::Correspondence { .. }),
-        )
+        // PMB under a critical energy stores no work record when w_c is one value, as it is
+        // when every node has the same horizon (else the estimate counts the record).
+        let same_horizon = body.horizons.iter().all(|&h| h == body.horizons[0]);
+        let force = match m {
+            MaterialDeck::Correspondence { .. } => BondForce::Vector,
+            MaterialDeck::Pmb { .. } if same_horizon => BondForce::Linear,
+            _ => BondForce::Central,
+        };
+        damage_history_words(&m.damage(), force)
     };
     let per_bond = memory::bytes_per_bond(
         Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
@@ -554,12 +563,11 @@ fn map_slice_cuts_body<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut
     ));
 }
 
-/// History words per bond of a damage law with a central material or not (for the memory
-/// estimate).
-fn damage_history_words(d: &DamageDeck, central: bool) -> usize {
+/// History words per bond of a damage law with one w_c for every node, for a material whose
+/// pair force is `force` (for the memory estimate).
+fn damage_history_words(d: &DamageDeck, force: BondForce) -> usize {
     match d {
-        DamageDeck::CriticalEnergy { .. } if central => CriticalEnergy::HISTORY,
-        DamageDeck::CriticalEnergy { .. } => CriticalEnergy::HISTORY_VECTOR,
+        DamageDeck::CriticalEnergy { .. } => history_words::<UniformCriticalEnergy>(force),
         DamageDeck::Bilinear { .. } | DamageDeck::Trilinear { .. } => Softening::HISTORY,
         _ => 0,
     }

@@ -125,6 +125,10 @@ pub trait Material<const D: usize>: Sync + Send {
     const NEEDS_PREPASS: bool;
     /// Force states along the deformed bond: the engine asks `pair_force_per_length`.
     const CENTRAL: bool = true;
+    /// The pair force of a bond with both halves intact is f = k e along the bond, k fixed
+    /// (bond-based PMB): the work done on it since the reference state is then ½ f e along any
+    /// path, which a critical-energy law takes without a record (`damage::Work::Stored`).
+    const LINEAR_BOND: bool = false;
     /// The bond loops fill `BondGeom::xi` (the reference bond vector).
     const NEEDS_XI: bool = false;
     /// Non-central models whose own half factors through matrices of node i alone: the own

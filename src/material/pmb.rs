@@ -226,6 +226,8 @@ impl Pmb {
 impl<const D: usize> Material<D> for Pmb {
     type Point = ();
     const NEEDS_PREPASS: bool = false;
+    /// f = c(ξ) ½(φ_ij + φ_ji) e/|ξ| along the bond (seed 001 Eq. 4), c(ξ) and φ fixed.
+    const LINEAR_BOND: bool = true;
 
     /// c φ̄ s / |ξ+η| = c φ̄ (|ξ+η| − |ξ|) / (|ξ| |ξ+η|): one division instead of two
     /// (f = c(ξ) s, seed 001 Eq. 4, weighted by the halves so that the force is the exact

@@ -54,8 +54,8 @@ pub struct NodeBonds<'a> {
     /// A uniform critical-energy law that this pass applies instead of a critical stretch
     /// (see `with_work`); the PMB and LPS force kernels implement it.
     pub work: Option<UniformCriticalEnergy>,
-    /// The family's history words: one per bond (the largest stretch) when `softening`, two
-    /// per bond (the work record) when `work`.
+    /// The family's history words: one per bond (the largest stretch) when `softening`, the
+    /// work records when `work` (see `with_work`).
     pub history: &'a mut [f64],
     /// Current positions at the previous force evaluation, flat as `current` (empty unless
     /// `with_previous`): the vector work record's displacement increments.
@@ -111,11 +111,14 @@ impl<'a> NodeBonds<'a> {
         self
     }
 
-    /// The same family under a uniform critical-energy law with its work records (two words
-    /// per bond, `damage::critical_energy`). Failure is then decided from the work in the
-    /// force pass, not from the stretch.
+    /// The same family under a uniform critical-energy law with its work records (none for a
+    /// linear bond, two words per bond for another central force, four for a vector force;
+    /// `damage::critical_energy`). Failure is then decided from the work in the force pass,
+    /// not from the stretch.
     pub fn with_work(mut self, law: UniformCriticalEnergy, history: &'a mut [f64]) -> Self {
-        debug_assert_eq!(history.len(), 2 * self.neighbors.len());
+        debug_assert!([0, 2, 4]
+            .map(|w| w * self.neighbors.len())
+            .contains(&history.len()));
         self.s0 = None;
         self.work = Some(law);
         self.history = history;

@@ -1,9 +1,10 @@
 //! AVX2 bond loops under a uniform critical-energy law (x86-64, 2D and 3D, uniform grids): the
-//! PMB force and the LPS force pass. Same pair force, work record, failure rule and arithmetic as
-//! the generic loop (`solver::forces` with `UniformCriticalEnergy::on_work`): the work since
-//! the previous evaluation by the trapezoidal rule, w += ½ (f_prev + f)(e − e_prev), with f and
-//! e kept as two f32 in one word (`damage::critical_energy`; Foster, Silling & Chen 2011,
-//! seed 002 Eq. 6), and both halves break once w ≥ w_c φ̄ (unless an end is no-fail, or,
+//! PMB force and the LPS force pass. Same pair force, work, failure rule and arithmetic as
+//! the generic loop (`solver::forces` with `UniformCriticalEnergy::on_work`): for LPS the work
+//! since the previous evaluation by the trapezoidal rule, w += ½ (f_prev + f)(e − e_prev), with
+//! f and e kept as two f32 in one word (`damage::critical_energy`; Foster, Silling & Chen 2011,
+//! seed 002 Eq. 6); for PMB, whose bond is linear, the work in closed form w = ½ f e, with no
+//! record (`damage::Work::Stored`); both halves break once w ≥ w_c φ̄ (unless an end is no-fail, or,
 //! with `tension_only`, the bond is not in tension; seed 004 §2.6). Only the order of a node's
 //! bond terms differs (four lanes, then the tail), and it is fixed, so results stay bitwise
 //! identical for any thread count. `tests/suite/kernels.rs` checks them against the generic loop.
@@ -27,6 +28,10 @@ use std::arch::x86_64::*;
 /// (t_i φ + t_j φ)/|y| (`Material::pair_force_per_length` with μ = 1), on four lanes and on
 /// one bond, in the generic loop's arithmetic.
 trait PairForce {
+    /// The pair force is linear in the extension (PMB, `Material::LINEAR_BOND`): its work is
+    /// ½ f e, with no record (`damage::Work::Stored`).
+    const LINEAR: bool;
+
     /// Bonds b..b+4 of `nb`, of reference lengths `l`, deformed lengths `len` and φ `p`.
     ///
     /// # Safety
@@ -50,6 +55,8 @@ trait PairForce {
 struct PmbPair<'a>(&'a PmbLaw);
 
 impl PairForce for PmbPair<'_> {
+    const LINEAR: bool = true;
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -80,6 +87,8 @@ struct LpsPair<'a, const D: usize> {
 }
 
 impl<const D: usize> PairForce for LpsPair<'_, D> {
+    const LINEAR: bool = false;
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -125,7 +134,7 @@ impl<const D: usize> PairForce for LpsPair<'_, D> {
 ///
 /// # Safety
 /// `simd::available()` must be true and every neighbour index below
-/// `current.len() / nb.dim`; `nb.history` holds two words per bond of the family.
+/// `current.len() / nb.dim`; `nb.history` may be empty (PMB keeps no work record).
 #[cfg(target_arch = "x86_64")]
 pub unsafe fn pmb_force_work(
     nb: &mut NodeBonds,
@@ -224,41 +233,47 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
         let mut keep = _mm256_and_pd(intact(nb.status, b), _mm256_cmp_pd::<_CMP_GT_OQ>(len, zero));
         let p = phi(w, l);
         let per_length = pair.lanes(nb, b, l, len, p);
-        // The work record [w, (f, e)] of the four bonds, as lanes.
-        let hp = nb.history.as_mut_ptr().add(2 * b);
-        prefetch::<2048, _>(hp);
-        prefetch::<512, _>(nb.neighbors.as_ptr().add(b));
-        let (h0, h1) = (_mm256_loadu_pd(hp), _mm256_loadu_pd(hp.add(4)));
-        let w_old = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(h0, h1));
-        let packed = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(h0, h1));
-        let fe = _mm256_permutevar8x32_ps(_mm256_castpd_ps(packed), split);
-        let f_prev = _mm256_cvtps_pd(_mm256_castps256_ps128(fe));
-        let e_prev = _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(fe));
-        // `accumulate_work`: w += ½ (f_prev + f)(e − e_prev), with f = (per length) |y|.
         let along = _mm256_mul_pd(per_length, len);
         let e = _mm256_sub_pd(len, l);
-        let w_new = _mm256_add_pd(
-            w_old,
-            _mm256_mul_pd(
-                _mm256_mul_pd(half, _mm256_add_pd(f_prev, along)),
-                _mm256_sub_pd(e, e_prev),
-            ),
-        );
-        // `pack`: f and e rounded to f32 (to nearest, as `as f32`), f in the high half.
-        let (f32s, e32s) = (_mm256_cvtpd_ps(along), _mm256_cvtpd_ps(e));
-        let packed_new = _mm256_castps_pd(_mm256_set_m128(
-            _mm_unpackhi_ps(e32s, f32s),
-            _mm_unpacklo_ps(e32s, f32s),
-        ));
-        // Lanes outside `keep` keep their record.
-        let w_st = _mm256_blendv_pd(w_old, w_new, keep);
-        let p_st = _mm256_blendv_pd(packed, packed_new, keep);
-        let (lo, hi) = (
-            _mm256_unpacklo_pd(w_st, p_st),
-            _mm256_unpackhi_pd(w_st, p_st),
-        );
-        _mm256_storeu_pd(hp, _mm256_permute2f128_pd::<0x20>(lo, hi));
-        _mm256_storeu_pd(hp.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
+        prefetch::<512, _>(nb.neighbors.as_ptr().add(b));
+        let w_new = if P::LINEAR {
+            // The work of a linear bond, ½ f e (`Work::Stored`).
+            _mm256_mul_pd(_mm256_mul_pd(half, along), e)
+        } else {
+            // The work record [w, (f, e)] of the four bonds, as lanes.
+            let hp = nb.history.as_mut_ptr().add(2 * b);
+            prefetch::<2048, _>(hp);
+            let (h0, h1) = (_mm256_loadu_pd(hp), _mm256_loadu_pd(hp.add(4)));
+            let w_old = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(h0, h1));
+            let packed = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(h0, h1));
+            let fe = _mm256_permutevar8x32_ps(_mm256_castpd_ps(packed), split);
+            let f_prev = _mm256_cvtps_pd(_mm256_castps256_ps128(fe));
+            let e_prev = _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(fe));
+            // `accumulate_work`: w += ½ (f_prev + f)(e − e_prev), with f = (per length) |y|.
+            let w_new = _mm256_add_pd(
+                w_old,
+                _mm256_mul_pd(
+                    _mm256_mul_pd(half, _mm256_add_pd(f_prev, along)),
+                    _mm256_sub_pd(e, e_prev),
+                ),
+            );
+            // `pack`: f and e rounded to f32 (to nearest, as `as f32`), f in the high half.
+            let (f32s, e32s) = (_mm256_cvtpd_ps(along), _mm256_cvtpd_ps(e));
+            let packed_new = _mm256_castps_pd(_mm256_set_m128(
+                _mm_unpackhi_ps(e32s, f32s),
+                _mm_unpacklo_ps(e32s, f32s),
+            ));
+            // Lanes outside `keep` keep their record.
+            let w_st = _mm256_blendv_pd(w_old, w_new, keep);
+            let p_st = _mm256_blendv_pd(packed, packed_new, keep);
+            let (lo, hi) = (
+                _mm256_unpacklo_pd(w_st, p_st),
+                _mm256_unpackhi_pd(w_st, p_st),
+            );
+            _mm256_storeu_pd(hp, _mm256_permute2f128_pd::<0x20>(lo, hi));
+            _mm256_storeu_pd(hp.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
+            w_new
+        };
         // `fails_on_work`: w ≥ w_c φ̄, φ̄ = ½(φ + φ), and in tension if `tension_only`.
         let mut over = _mm256_and_pd(
             _mm256_cmp_pd::<_CMP_GE_OQ>(
@@ -311,18 +326,29 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
         let l = nb.ref_lengths[b];
         let p = w.phi(l);
         let per_length = pair.one(i, j, l, len, p);
-        let extension = len - l;
+        let (along, extension) = (per_length * len, len - l);
+        let (work, record) = if P::LINEAR {
+            (
+                Work::Stored {
+                    energy: 0.5 * along * extension,
+                },
+                &mut [][..],
+            )
+        } else {
+            let work = Work::Along {
+                force: along,
+                extension,
+            };
+            (work, &mut nb.history[2 * b..2 * b + 2])
+        };
         broke += energy.on_work(
             i,
             j,
-            Work::Along {
-                force: per_length * len,
-                extension,
-            },
+            work,
             extension,
             0.5 * (p + p),
             nb.no_fail[i] || nb.no_fail[j],
-            &mut nb.history[2 * b..2 * b + 2],
+            record,
             &mut nb.status[b],
         );
         if nb.status[b] == BROKEN {

@@ -13,7 +13,7 @@ use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::damage::critical_stretch::UniformCriticalStretch;
 use crate::damage::mixed::MixedLaws;
 use crate::damage::{
-    Damage, DamageLaw, MixedDamage, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN,
+    BondForce, Damage, DamageLaw, MixedDamage, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN,
 };
 use crate::material::simd::{self, NodeBonds};
 use crate::material::{BondGeom, Material, PointError};
@@ -173,13 +173,18 @@ impl<const D: usize, W: Weights, Dm: DamageLaw> Sweep<'_, D, W, Dm> {
     }
 }
 
+/// What the damage laws are told of material `M`'s pair force.
+pub const fn bond_force<const D: usize, M: Material<D>>() -> BondForce {
+    match (M::CENTRAL, M::LINEAR_BOND) {
+        (true, true) => BondForce::Linear,
+        (true, false) => BondForce::Central,
+        (false, _) => BondForce::Vector,
+    }
+}
+
 /// History words per bond entry of law `Dm` with material `M`.
 const fn history_words<const D: usize, M: Material<D>, Dm: DamageLaw>() -> usize {
-    if M::CENTRAL {
-        Dm::HISTORY
-    } else {
-        Dm::HISTORY_VECTOR
-    }
+    crate::damage::history_words::<Dm>(bond_force::<D, M>())
 }
 
 /// Splits `data` into consecutive mutable pieces ending at each of `ends`.
@@ -376,19 +381,20 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             per_chunk.iter_mut().zip(counts).for_each(|(a, c)| *a += c);
         };
         // The AVX2 kernels, where the model has them: uniform grid, in 3D one critical stretch,
-        // one softening law or one critical energy (with a central model's two-word work
-        // record, or in 3D a non-central model's four-word one), in 2D one critical energy,
+        // one softening law or one critical energy (with a linear bond's closed form, a
+        // central model's two-word work record, or in 3D a non-central model's four-word
+        // one), in 2D one critical energy,
         // x86-64 with AVX2, and neighbour indices known to be in bounds (the kernels' gathers
         // rely on it).
         let s0 = damage.uniform_critical_stretch();
         let softening = damage.uniform_softening().filter(|_| hw == 1);
-        let work = damage.uniform_critical_energy().filter(|_| {
-            if M::CENTRAL {
-                hw == 2
-            } else {
-                D == 3 && hw == 4
-            }
-        });
+        let work = damage
+            .uniform_critical_energy()
+            .filter(|_| match bond_force::<D, M>() {
+                BondForce::Linear => hw == 0,
+                BondForce::Central => hw == 2,
+                BondForce::Vector => D == 3 && hw == 4,
+            });
         let vector = if ((D == 3 && (s0.is_some() || softening.is_some())) || work.is_some())
             && self.vector_kernels
             && self.neighbors_in_bounds
@@ -559,13 +565,17 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         let (force, work) = if M::CENTRAL {
                             let per_length = material.pair_force_per_length(i, j, &geom, pi, pj);
                             let along = per_length * geom.len;
-                            (
-                                geom.y * per_length,
+                            let work = if M::LINEAR_BOND && Dm::CLOSED_FORM_WORK {
+                                Work::Stored {
+                                    energy: 0.5 * along * extension,
+                                }
+                            } else {
                                 Work::Along {
                                     force: along,
                                     extension,
-                                },
-                            )
+                                }
+                            };
+                            (geom.y * per_length, work)
                         } else {
                             let force = material.pair_force(i, j, &geom, pi, pj);
                             let step = geom.y - (previous[j] - previous[i]);
@@ -688,7 +698,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         i: usize,
         skip: u8,
     ) -> impl Iterator<Item = BondGeom<D>> + 'a {
-        let hw = self.damage.history_words(M::CENTRAL);
+        let hw = self.damage.history_words(bond_force::<D, M>());
         bonds
             .family(i)
             .filter(move |&b| status[b] & skip == 0)
@@ -750,7 +760,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         if !self.damage.partial() {
             return state.dissipated_damage;
         }
-        let hw = self.damage.history_words(M::CENTRAL);
+        let hw = self.damage.history_words(bond_force::<D, M>());
         let point = M::Point::default();
         let per_chunk: Vec<f64> = self
             .chunks

@@ -11,6 +11,6 @@ pub mod quasi_static;
 pub mod verlet;
 
 pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};
-pub use forces::ForceEngine;
+pub use forces::{bond_force, ForceEngine};
 pub use quasi_static::{EquilibriumMethod, LoadStepReport, QuasiStatic, QuasiStaticSettings};
 pub use verlet::{Fields, Simulation, StepError};

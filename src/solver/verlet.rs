@@ -81,7 +81,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         safety_factor: f64,
     ) -> Result<Self, StepError> {
         let damage = damage.into();
-        let history_words = damage.history_words(M::CENTRAL);
+        let history_words = damage.history_words(crate::solver::bond_force::<D, M>());
         let keep_previous = damage.records_work() && !M::CENTRAL;
         let engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
         let dt_stable = engine.stable_time_step(&body, &bonds);

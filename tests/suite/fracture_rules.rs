@@ -158,3 +158,114 @@ fn no_fail_precrack_and_symmetric_breakage() {
     }
     assert!(checked_opening);
 }
+
+/// PMB under a critical energy with one w_c takes each bond's work in closed form, ½ f e
+/// (`damage::Work::Stored`), and stores nothing per bond; with w_c per node the engine keeps
+/// the trapezoidal record instead. Along a path that loads, reverses into compression and
+/// reloads (nine evaluations), the record must hold ½ f e of the final state (to the single
+/// precision in which it keeps the previous force and extension: 1.6e-7 measured), and the
+/// two forms must break the same bonds at every evaluation.
+#[test]
+fn pmb_work_in_closed_form_equals_the_trapezoidal_record() {
+    use super::common::{lattice_body, pmb, simulation};
+    use peridyn::bonds::PartialVolume;
+    use peridyn::damage::{CriticalEnergy, PerNode};
+    use peridyn::material::{Dimensionality, MicromodulusProfile};
+    use peridyn::math::Vector;
+
+    let dim = Dimensionality::ThreeD;
+    let rule = PartialVolume::Hhb;
+    let (body, bonds) = lattice_body::<3>(9, 1e-3, 3.0, rule);
+    let material = pmb(dim, 70e9, 3e-3, MicromodulusProfile::Constant);
+    let wc = CriticalEnergy::critical_energy(300.0, 3e-3, dim, 1.0);
+    let n = body.len();
+    let law = |wc: PerNode| CriticalEnergy {
+        wc,
+        tension_only: false,
+    };
+    let mut closed = simulation(
+        body.clone(),
+        bonds.clone(),
+        material.clone(),
+        law(PerNode::Uniform(wc)),
+        rule,
+    );
+    let mut record = simulation(
+        body.clone(),
+        bonds.clone(),
+        material.clone(),
+        law(PerNode::Varying(vec![wc; n])),
+        rule,
+    );
+    assert!(
+        closed.state.history.is_empty(),
+        "the closed form keeps no record"
+    );
+    assert_eq!(record.state.history.len(), 2 * bonds.len());
+    // Both through the generic loop (the kernel is compared with it in kernels.rs).
+    closed.engine.vector_kernels = false;
+    // A field with a smooth gradient and node-to-node noise, so that every bond's extension
+    // follows its own path.
+    let field = |i: usize, x: &Vector<3>, scale: f64| {
+        let wobble = (((i * 7919) % 101) as f64 / 101.0 - 0.5) * 0.1;
+        Vector::<3>::from_fn(|k, _| {
+            scale * 1.2e-3 * x[k] * (1.0 + wobble) * if k == 1 { -0.3 } else { 1.0 }
+        })
+    };
+    let path = [0.2, 0.5, 0.3, -0.4, -0.1, 0.4, 0.7, 0.85, 1.0];
+    let mut first_break = None;
+    for (step, &scale) in path.iter().enumerate() {
+        for sim in [&mut closed, &mut record] {
+            let body = sim.body.clone();
+            for i in 0..n {
+                sim.state
+                    .set_displacement(&body, i, field(i, &body.positions[i], scale));
+            }
+            sim.refresh_forces().unwrap();
+        }
+        assert_eq!(
+            closed.state.status, record.state.status,
+            "step {step}: the two forms break different bonds"
+        );
+        if first_break.is_none() && closed.state.status.iter().any(|&s| s != 0) {
+            first_break = Some(step);
+        }
+    }
+    let first_break = first_break.expect("the path must break bonds");
+    assert!(
+        first_break >= 5,
+        "bonds must break only after the reversal (first at step {first_break})"
+    );
+    let broken = closed.state.status.iter().filter(|&&s| s != 0).count();
+    assert!(
+        broken < bonds.len() / 2,
+        "most bonds must survive to be compared ({broken} broken)"
+    );
+    // The record against ½ f e = ½ c φ̄ e²/|ξ| of the final positions, bond by bond.
+    let c0 = material.c0.uniform().unwrap();
+    let quad = &record.engine.quad;
+    let (mut worst, mut compared) = (0.0f64, 0usize);
+    for i in 0..n {
+        for b in bonds.family(i) {
+            if record.state.status[b] != 0 {
+                continue;
+            }
+            let j = bonds.neighbors[b] as usize;
+            let l = bonds.ref_lengths[b];
+            let e = (record.state.current[j] - record.state.current[i]).norm() - l;
+            let (pij, pji) = quad.phi_pair(b, i, j, l);
+            let half_fe = 0.5 * c0 * 0.5 * (pij + pji) * e * e / l;
+            let w = record.state.history[2 * b];
+            if half_fe > 1e-3 * wc {
+                worst = worst.max((w / half_fe - 1.0).abs());
+                compared += 1;
+            }
+        }
+    }
+    println!("{compared} bonds: trapezoidal record vs ½ f e, worst relative difference {worst:.2e}; {broken} of {} entries broken from step {first_break}", bonds.len());
+    assert!(compared > bonds.len() / 4);
+    assert!(
+        worst < 1e-5,
+        "the trapezoidal record differs from ½ f e by {worst}"
+    );
+}
