@@ -27,3 +27,4 @@ pub mod run;
 pub mod solver;
 pub mod state;
 pub mod study;
+pub mod study_run;

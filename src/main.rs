@@ -1,8 +1,10 @@
 //! The `peridyn` command line: a thin layer over the library.
 
 use clap::{Parser, Subcommand};
+use peridyn::deck::study::LoadedStudy;
 use peridyn::deck::LoadedDeck;
 use peridyn::run::{check, run_with, RunControl, RunOptions};
+use peridyn::study_run::{plan_study, run_study, StudyOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -57,6 +59,25 @@ enum Command {
         output: Option<PathBuf>,
     },
     /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
+    /// Run a parameter study of a deck (study file: the deck, the numbers to vary, Morris
+    /// screening or a sweep, the outputs to read): every run in DIR/runs/, runs.csv, and for
+    /// Morris morris.csv and a μ*–σ plot per output. Started again, it continues where it
+    /// stopped.
+    Study {
+        study: PathBuf,
+        /// Results folder (default: results/<study name>).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Worker threads of each run (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress lines.
+        #[arg(short, long)]
+        quiet: bool,
+        /// Validate the study and every run's deck, print the runs, run nothing.
+        #[arg(long)]
+        dry_run: bool,
+    },
     Bench {
         /// Target number of directed bonds per case.
         #[arg(long, default_value_t = 4_000_000)]
@@ -138,6 +159,43 @@ fn main() -> ExitCode {
 grid written to {}",
                 out_dir.display()
             );
+            Ok(())
+        })(),
+        Command::Study {
+            study,
+            output,
+            threads,
+            quiet,
+            dry_run,
+        } => (|| {
+            let ls = LoadedStudy::from_file(&study).map_err(|e| e.to_string())?;
+            if dry_run {
+                let runs = plan_study(&ls, threads).map_err(|e| e.to_string())?;
+                println!(
+                    "{}: study is valid, {} runs; every run's deck is valid and builds",
+                    study.display(),
+                    runs.len()
+                );
+                let keys: Vec<&str> = ls.study.factors.iter().map(|f| f.key.as_str()).collect();
+                println!("run,{}", keys.join(","));
+                for (k, r) in runs.iter().enumerate() {
+                    let v: Vec<String> = r.values.iter().map(|v| v.to_string()).collect();
+                    println!("{k},{}", v.join(","));
+                }
+                return Ok(());
+            }
+            let out_dir =
+                output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&study)));
+            let report = run_study(
+                &ls,
+                &StudyOptions {
+                    out_dir,
+                    threads,
+                    quiet,
+                },
+            )
+            .map_err(|e| e.to_string())?;
+            println!("{report}");
             Ok(())
         })(),
         Command::Bench {

@@ -3,10 +3,12 @@
 
 pub mod build;
 pub mod contact;
+pub mod edit;
 pub mod grids;
 pub mod locate;
 pub mod schema;
 pub mod stages;
+pub mod study;
 pub mod validate;
 
 pub use locate::KeyPath;
@@ -102,29 +104,7 @@ impl LoadedDeck {
 
     /// Parses and validates deck text; `file` names it in messages and anchors relative paths.
     pub fn from_str(src: &str, file: &Path) -> Result<Self, DeckError> {
-        let name = file.display().to_string();
-        let deck: Deck = match toml::from_str(src) {
-            Ok(d) => d,
-            Err(e) => {
-                let mut offset = e.span().map(|r| r.start).unwrap_or(0);
-                let located = locate::Located::new(src);
-                let mut path = located.path_at(offset);
-                let message = e.message().trim().replace('\n', " ");
-                if let Some((p, span)) = located.refine(&path, &message) {
-                    path = p;
-                    offset = span.start;
-                }
-                let (line, column) = locate::line_col(src, offset);
-                let path = path.to_string();
-                return Err(DeckError::Invalid(vec![LocatedIssue {
-                    file: name,
-                    line,
-                    column,
-                    path,
-                    message,
-                }]));
-            }
-        };
+        let deck: Deck = parse_located(src, file)?;
         let loaded = LoadedDeck {
             deck,
             file: file.to_path_buf(),
@@ -139,23 +119,7 @@ impl LoadedDeck {
 
     /// Turns issues into a located error.
     pub fn locate(&self, issues: Vec<DeckIssue>) -> DeckError {
-        let located = locate::Located::new(&self.src);
-        DeckError::Invalid(
-            issues
-                .into_iter()
-                .map(|i| {
-                    let offset = located.span_of(&i.path).map(|r| r.start).unwrap_or(0);
-                    let (line, column) = locate::line_col(&self.src, offset);
-                    LocatedIssue {
-                        file: self.file.display().to_string(),
-                        line,
-                        column,
-                        path: i.path.to_string(),
-                        message: i.message,
-                    }
-                })
-                .collect(),
-        )
+        locate_issues(&self.src, &self.file, issues)
     }
 
     /// The folder relative paths in the deck are taken from.
@@ -165,4 +129,51 @@ impl LoadedDeck {
             .map(Path::to_path_buf)
             .unwrap_or_default()
     }
+}
+
+/// Parses TOML text into `T` (unknown keys rejected by `T`'s schema); a syntax or schema error
+/// is located at its line, column and key path.
+pub(crate) fn parse_located<T: serde::de::DeserializeOwned>(
+    src: &str,
+    file: &Path,
+) -> Result<T, DeckError> {
+    toml::from_str(src).map_err(|e| {
+        let mut offset = e.span().map(|r| r.start).unwrap_or(0);
+        let located = locate::Located::new(src);
+        let mut path = located.path_at(offset);
+        let message = e.message().trim().replace('\n', " ");
+        if let Some((p, span)) = located.refine(&path, &message) {
+            path = p;
+            offset = span.start;
+        }
+        let (line, column) = locate::line_col(src, offset);
+        DeckError::Invalid(vec![LocatedIssue {
+            file: file.display().to_string(),
+            line,
+            column,
+            path: path.to_string(),
+            message,
+        }])
+    })
+}
+
+/// Issues found in the text `src` of `file`, located at their keys.
+pub(crate) fn locate_issues(src: &str, file: &Path, issues: Vec<DeckIssue>) -> DeckError {
+    let located = locate::Located::new(src);
+    DeckError::Invalid(
+        issues
+            .into_iter()
+            .map(|i| {
+                let offset = located.span_of(&i.path).map(|r| r.start).unwrap_or(0);
+                let (line, column) = locate::line_col(src, offset);
+                LocatedIssue {
+                    file: file.display().to_string(),
+                    line,
+                    column,
+                    path: i.path.to_string(),
+                    message: i.message,
+                }
+            })
+            .collect(),
+    )
 }

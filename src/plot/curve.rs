@@ -15,7 +15,7 @@ use super::font;
 const SIZE: (u32, u32) = (900, 560);
 
 /// Distinct line colours (matplotlib's "tab10"), cycled.
-const COLOURS: [RGBColor; 10] = [
+pub(crate) const COLOURS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -82,7 +82,7 @@ fn axis_range(values: impl Iterator<Item = f64>, pad_frac: f64) -> Range<f64> {
 
 /// Tick labels readable at the axis's scale: plain decimals with enough digits for the span,
 /// or scientific notation for very small or large values.
-fn tick_format(range: &Range<f64>) -> impl Fn(&f64) -> String {
+pub(crate) fn tick_format(range: &Range<f64>) -> impl Fn(&f64) -> String {
     let span = (range.end - range.start).abs();
     let size = range.start.abs().max(range.end.abs());
     let scientific = size > 0.0 && !(1e-2..1e5).contains(&size);

@@ -5,3 +5,4 @@ pub mod damage_map;
 mod font;
 pub mod history_plots;
 pub mod map_nodes;
+pub mod morris_plot;

@@ -6,6 +6,13 @@
 //!
 //! - `morris`: Morris elementary-effects screening (Morris 1991) with the trajectory selection
 //!   of Campolongo et al. 2007, as used in seed 004 §3 (9 inputs, 5 trajectories out of 20,
-//!   50 runs).
+//!   50 runs);
+//! - `sweep`: every combination of given values (a full-factorial parameter study);
+//! - `table`: a run's CSV output as numbers, and the reductions that make one output of it.
+//!
+//! `study_run.rs` (front layer) edits the deck at each design point, runs it and reads the
+//! outputs back.
 
 pub mod morris;
+pub mod sweep;
+pub mod table;

@@ -1,4 +1,4 @@
-//! Good decks: the shipped examples build, point clouds and CSG shapes give the bodies they
+//! Good decks: the shipped examples build (study files: every run's deck), point clouds and CSG shapes give the bodies they
 //! describe, traction loads apply their total force, and `resolved.toml` runs again.
 
 use peridyn::deck::build::build_model;
@@ -17,7 +17,14 @@ fn shipped_examples_build() {
         .flat_map(|dir| std::fs::read_dir(root().join(dir)).unwrap());
     for entry in decks {
         let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "toml") {
+        if path.to_string_lossy().ends_with("_study.toml") {
+            // A parameter study: valid, and every run's deck builds.
+            let ls = peridyn::deck::study::LoadedStudy::from_file(&path)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let runs = peridyn::study_run::plan_study(&ls, Some(1))
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(runs.len() > 1, "{}", path.display());
+        } else if path.extension().is_some_and(|e| e == "toml") {
             let ld = LoadedDeck::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
             let report = check(&ld, Some(1)).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             // The Gmsh example is a small mesh (432 elements); the lattices are finer.

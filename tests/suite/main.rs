@@ -34,5 +34,6 @@ mod restart;
 mod separation_work;
 mod softening;
 mod staged;
+mod study;
 mod wave_speed;
 mod wedge_splitting;

@@ -1,0 +1,407 @@
+//! Study files: the deck every run starts from, the inputs a study varies (factors: numbers of
+//! that deck by key path, between bounds or through a list of values), the design (Morris
+//! screening or a sweep over every combination) and the outputs read from each run's CSV
+//! files. Parsed and validated like a deck: every problem is named at its file, line and key.
+
+use super::edit::number_at;
+use super::{locate_issues, parse_located, DeckError, DeckIssue, KeyPath, LoadedDeck};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// More runs than this are refused as a likely mistake.
+pub const MAX_RUNS: usize = 100_000;
+
+/// A study file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    pub version: u32,
+    /// The deck every run starts from, relative to the study file.
+    pub deck: PathBuf,
+    pub method: StudyMethod,
+    /// Morris settings (`method = "morris"` only; defaults otherwise).
+    pub morris: Option<MorrisSettings>,
+    /// Numbers of the deck set to one value for every run (e.g. a coarser grid for a
+    /// screening study), applied before the factors.
+    #[serde(default)]
+    pub fixed: Vec<FixedSpec>,
+    pub factors: Vec<FactorSpec>,
+    pub outputs: Vec<OutputSpec>,
+}
+
+/// A number of the base deck set for every run of the study.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FixedSpec {
+    pub key: String,
+    pub value: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StudyMethod {
+    /// Morris elementary-effects screening (`study::morris`): factors between `min` and `max`.
+    Morris,
+    /// Every combination of the factors' `values` (a full factorial parameter study).
+    Sweep,
+}
+
+/// The Morris design (Morris 1991; Campolongo et al. 2007; seed 004 §3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MorrisSettings {
+    /// r: trajectories kept (k + 1 runs each, k factors).
+    #[serde(default = "default_trajectories")]
+    pub trajectories: usize,
+    /// N: trajectories drawn, of which the r most spread out are kept.
+    #[serde(default = "default_pool")]
+    pub pool: usize,
+    /// p: grid levels per factor (even).
+    #[serde(default = "default_levels")]
+    pub levels: usize,
+    /// The random design's seed: the same seed, the same runs on every machine.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+fn default_trajectories() -> usize {
+    5
+}
+fn default_pool() -> usize {
+    20
+}
+fn default_levels() -> usize {
+    4
+}
+
+impl Default for MorrisSettings {
+    /// Seed 004 §3: r = 5 of N = 20; p = 4.
+    fn default() -> Self {
+        MorrisSettings {
+            trajectories: default_trajectories(),
+            pool: default_pool(),
+            levels: default_levels(),
+            seed: 0,
+        }
+    }
+}
+
+/// One input of the study: a number of the base deck.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FactorSpec {
+    /// Key path of the number in the deck, e.g. `material.youngs_modulus` or
+    /// `boundary_conditions[0].value`.
+    pub key: String,
+    /// Bounds (Morris).
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// Values (sweep).
+    pub values: Option<Vec<f64>>,
+}
+
+/// One scalar read from every run.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// The output's name in `runs.csv`, `morris.csv` and plot file names.
+    pub name: String,
+    /// The run's CSV file it is read from (default `history.csv`).
+    #[serde(default = "default_file")]
+    pub file: String,
+    /// The column of that file.
+    pub column: String,
+    pub reduce: Reduce,
+    /// `first_time_above`: the level the column must pass.
+    pub threshold: Option<f64>,
+    /// Only rows with `time` ≤ this (s) count (seed 004 evaluates its study up to a given
+    /// grip displacement).
+    pub until: Option<f64>,
+}
+
+fn default_file() -> String {
+    "history.csv".into()
+}
+
+/// How a column becomes one number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reduce {
+    /// The last row's value.
+    Final,
+    Max,
+    Min,
+    /// The largest magnitude (a reaction force of either sign).
+    MaxAbs,
+    /// The `time` of the first row whose value exceeds `threshold` (e.g. crack initiation:
+    /// `broken_bonds` above 0); a run that never passes it has no value.
+    FirstTimeAbove,
+}
+
+/// A parsed and validated study with its base deck.
+#[derive(Debug, Clone)]
+pub struct LoadedStudy {
+    pub study: StudyFile,
+    pub file: PathBuf,
+    pub src: String,
+    /// The base deck, loaded and validated.
+    pub base: LoadedDeck,
+    /// The factors' key paths, parsed.
+    pub keys: Vec<KeyPath>,
+}
+
+impl LoadedStudy {
+    /// Reads, parses and validates a study file and its base deck.
+    pub fn from_file(path: &Path) -> Result<Self, DeckError> {
+        let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io {
+            file: path.display().to_string(),
+            source,
+        })?;
+        let study: StudyFile = parse_located(&src, path)?;
+        let fail = |issues: Vec<DeckIssue>| locate_issues(&src, path, issues);
+        let base_path = path.parent().unwrap_or(Path::new("")).join(&study.deck);
+        let base = match std::fs::read_to_string(&base_path) {
+            Ok(text) => LoadedDeck::from_str(&text, &base_path)?,
+            Err(e) => {
+                return Err(fail(vec![DeckIssue::new(
+                    "deck",
+                    format!("cannot read the deck {}: {e}", base_path.display()),
+                )]))
+            }
+        };
+        let issues = validate(&study, &base.src);
+        if !issues.is_empty() {
+            return Err(fail(issues));
+        }
+        let keys = study
+            .factors
+            .iter()
+            .map(|f| KeyPath::parse(&f.key))
+            .collect();
+        Ok(LoadedStudy {
+            study,
+            file: path.to_path_buf(),
+            src,
+            base,
+            keys,
+        })
+    }
+
+    /// The Morris settings in force (the defaults when the file gives none).
+    pub fn morris(&self) -> MorrisSettings {
+        self.study.morris.unwrap_or_default()
+    }
+
+    /// How many runs the design makes.
+    pub fn runs(&self) -> usize {
+        runs(&self.study).unwrap_or(usize::MAX)
+    }
+}
+
+/// Runs of the design: r (k + 1) for Morris, the product of the value counts for a sweep
+/// (`None` past `usize`).
+fn runs(study: &StudyFile) -> Option<usize> {
+    match study.method {
+        StudyMethod::Morris => {
+            let r = study.morris.unwrap_or_default().trajectories;
+            r.checked_mul(study.factors.len() + 1)
+        }
+        StudyMethod::Sweep => study.factors.iter().try_fold(1usize, |n, f| {
+            n.checked_mul(f.values.as_ref().map_or(0, |v| v.len()))
+        }),
+    }
+}
+
+fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
+    let mut issues = Vec::new();
+    let mut issue = |path: String, message: String| issues.push(DeckIssue::new(&path, message));
+    if study.version != 1 {
+        issue(
+            "version".into(),
+            format!(
+                "study file version {} is not known; expected 1",
+                study.version
+            ),
+        );
+    }
+    let morris = study.method == StudyMethod::Morris;
+    match (study.method, study.morris) {
+        (StudyMethod::Sweep, Some(_)) => issue(
+            "morris".into(),
+            "Morris settings apply to method = \"morris\" only; remove them or change the method"
+                .into(),
+        ),
+        (_, Some(m)) => {
+            if m.trajectories < 2 {
+                issue(
+                    "morris.trajectories".into(),
+                    format!(
+                        "r = {} trajectories is too few: σ needs r ≥ 2",
+                        m.trajectories
+                    ),
+                );
+            }
+            if m.pool < m.trajectories {
+                issue(
+                    "morris.pool".into(),
+                    format!(
+                        "a pool of {} trajectories cannot give r = {}; expected pool ≥ trajectories",
+                        m.pool, m.trajectories
+                    ),
+                );
+            }
+            if m.levels < 2 || m.levels % 2 != 0 {
+                issue(
+                    "morris.levels".into(),
+                    format!("expected an even number of levels ≥ 2, got {}", m.levels),
+                );
+            }
+        }
+        _ => {}
+    }
+    for (k, f) in study.fixed.iter().enumerate() {
+        let at = |key: &str| format!("fixed[{k}].{key}");
+        if let Err(e) = number_at(base_src, &KeyPath::parse(&f.key)) {
+            issue(at("key"), e);
+        }
+        if !f.value.is_finite() {
+            issue(
+                at("value"),
+                format!("expected a finite number, got {}", f.value),
+            );
+        }
+        if study.fixed[..k].iter().any(|g| g.key == f.key) {
+            issue(at("key"), format!("`{}` is fixed twice", f.key));
+        }
+        if study.factors.iter().any(|g| g.key == f.key) {
+            issue(
+                at("key"),
+                format!("`{}` is also a factor; it cannot be both", f.key),
+            );
+        }
+    }
+    if study.factors.is_empty() {
+        issue(
+            "factors".into(),
+            "a study needs at least one [[factors]] entry".into(),
+        );
+    }
+    for (k, f) in study.factors.iter().enumerate() {
+        let at = |key: &str| format!("factors[{k}].{key}");
+        if let Err(e) = number_at(base_src, &KeyPath::parse(&f.key)) {
+            issue(at("key"), e);
+        }
+        if study.factors[..k].iter().any(|g| g.key == f.key) {
+            issue(at("key"), format!("`{}` is varied twice", f.key));
+        }
+        if morris {
+            if f.values.is_some() {
+                issue(
+                    at("values"),
+                    "a Morris factor takes `min` and `max`, not `values` (those are for method = \"sweep\")".into(),
+                );
+            }
+            match (f.min, f.max) {
+                (Some(lo), Some(hi)) if !(lo.is_finite() && hi.is_finite()) => issue(
+                    at("min"),
+                    format!("bounds must be finite numbers, got [{lo}, {hi}]"),
+                ),
+                (Some(lo), Some(hi)) if lo >= hi => issue(
+                    at("max"),
+                    format!("expected max above min, got min = {lo}, max = {hi}"),
+                ),
+                (Some(_), Some(_)) => {}
+                _ => issue(
+                    at("key"),
+                    "a Morris factor needs both `min` and `max`".into(),
+                ),
+            }
+        } else {
+            if f.min.is_some() || f.max.is_some() {
+                issue(
+                    at("key"),
+                    "a sweep factor takes `values`, not `min` and `max` (those are for method = \"morris\")".into(),
+                );
+            }
+            match &f.values {
+                None => issue(at("key"), "a sweep factor needs `values`".into()),
+                Some(v) if v.is_empty() => {
+                    issue(at("values"), "expected at least one value".into())
+                }
+                Some(v) => {
+                    if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
+                        issue(
+                            at("values"),
+                            format!("values must be finite numbers, got {bad}"),
+                        );
+                    }
+                }
+            }
+        }
+    }
+    if study.outputs.is_empty() {
+        issue(
+            "outputs".into(),
+            "a study needs at least one [[outputs]] entry".into(),
+        );
+    }
+    for (k, o) in study.outputs.iter().enumerate() {
+        let at = |key: &str| format!("outputs[{k}].{key}");
+        let name_ok = !o.name.is_empty()
+            && o.name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        if !name_ok {
+            issue(
+                at("name"),
+                format!(
+                    "expected a name of letters, digits, '_' or '-' (it names files), got {:?}",
+                    o.name
+                ),
+            );
+        }
+        if study.outputs[..k].iter().any(|p| p.name == o.name) {
+            issue(at("name"), format!("output `{}` is named twice", o.name));
+        }
+        if o.file.contains(['/', '\\']) || !o.file.ends_with(".csv") {
+            issue(
+                at("file"),
+                format!(
+                    "expected the name of a CSV file the run writes (history.csv, crack_tip.csv, …), got {:?}",
+                    o.file
+                ),
+            );
+        }
+        match (o.reduce, o.threshold) {
+            (Reduce::FirstTimeAbove, None) => {
+                issue(at("reduce"), "first_time_above needs a `threshold`".into())
+            }
+            (Reduce::FirstTimeAbove, Some(t)) if !t.is_finite() => issue(
+                at("threshold"),
+                format!("expected a finite number, got {t}"),
+            ),
+            (Reduce::FirstTimeAbove, _) => {}
+            (_, Some(_)) => issue(
+                at("threshold"),
+                "a threshold is used by reduce = \"first_time_above\" only".into(),
+            ),
+            _ => {}
+        }
+        if let Some(t) = o.until {
+            if !(t.is_finite() && t >= 0.0) {
+                issue(at("until"), format!("expected a time ≥ 0 s, got {t}"));
+            }
+        }
+    }
+    match runs(study) {
+        Some(n) if n <= MAX_RUNS => {}
+        n => issue(
+            "factors".into(),
+            format!(
+                "the design makes {} runs, more than {MAX_RUNS}; use fewer factors, values or trajectories",
+                n.map_or("too many".into(), |n| n.to_string())
+            ),
+        ),
+    }
+    issues
+}

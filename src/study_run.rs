@@ -1,0 +1,533 @@
+//! `peridyn study`: a parameter study of a deck. The study file (`deck::study`) names the deck,
+//! the numbers of it to vary (factors), the design (Morris screening, `study::morris`, or a
+//! sweep over every combination, `study::sweep`) and the outputs read back from each run's CSV
+//! files (`study::table`). Every design point's deck is built and validated before the first
+//! run; each run writes its own results folder (`runs/run_NNNN/`, with the `deck.toml` it ran),
+//! and `runs.csv` is rewritten after every run, so a study that is stopped continues where it
+//! stopped when started again with the same study file and folder: finished runs (those in
+//! `runs.csv` with the same factor values) are not run again. A run that fails (an unstable
+//! run stopped by the guard, say) is recorded as failed and its outputs left empty; the Morris
+//! statistics skip the elementary effects that need it. At the end: `morris.csv` and one
+//! μ*–σ plot per output (`plots/morris_<output>.png`), or, for a sweep of one factor, a plot of
+//! each output against it (`plots/sweep_<output>.png`).
+
+use crate::atomic_file::write_atomic;
+use crate::deck::edit::set_number;
+use crate::deck::study::{LoadedStudy, OutputSpec, Reduce, StudyMethod};
+use crate::deck::{DeckError, LoadedDeck};
+use crate::plot::curve::write_named_curves_png;
+use crate::plot::morris_plot::write_morris_png;
+use crate::run::{check, run_with, RunControl, RunOptions};
+use crate::study::morris::{morris_statistics, Factor, FactorEffect, MorrisDesign, MorrisOptions};
+use crate::study::sweep::sweep_points;
+use crate::study::table::{Reduction, Table};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where and how a study runs.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    pub out_dir: PathBuf,
+    /// Worker threads of each run (results are identical for any count).
+    pub threads: Option<usize>,
+    /// No progress lines.
+    pub quiet: bool,
+}
+
+/// Why a study stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyRunError {
+    #[error(transparent)]
+    Deck(#[from] DeckError),
+    #[error("{0}")]
+    Design(String),
+    #[error("run {run} ({values}) cannot run:\n{error}")]
+    Point {
+        run: usize,
+        values: String,
+        error: String,
+    },
+    #[error("{study}: outputs[{index}] (`{name}`): {message}")]
+    Output {
+        study: String,
+        index: usize,
+        name: String,
+        message: String,
+    },
+    #[error("{0}")]
+    Io(String),
+}
+
+/// One run of the design: its factor values and, once run, its outputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRecord {
+    pub values: Vec<f64>,
+    /// Morris: the trajectory the run belongs to.
+    pub trajectory: Option<usize>,
+    /// "ok", "failed: …", or "" (not run yet).
+    pub status: String,
+    pub outputs: Vec<Option<f64>>,
+}
+
+/// What a study did.
+#[derive(Debug, Clone)]
+pub struct StudyReport {
+    pub method: StudyMethod,
+    pub factors: Vec<String>,
+    pub runs: Vec<RunRecord>,
+    /// Runs taken from an earlier invocation's `runs.csv`.
+    pub reused: usize,
+    /// Morris: each output's name and its factors' statistics.
+    pub effects: Vec<(String, Vec<FactorEffect>)>,
+    pub out_dir: PathBuf,
+}
+
+impl StudyReport {
+    pub fn failed(&self) -> usize {
+        self.runs.iter().filter(|r| r.status != "ok").count()
+    }
+}
+
+impl fmt::Display for StudyReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "study            {} runs ({} from an earlier invocation, {} failed) in {}",
+            self.runs.len(),
+            self.reused,
+            self.failed(),
+            self.out_dir.display()
+        )?;
+        for (output, effects) in &self.effects {
+            writeln!(
+                f,
+                "Morris, {output}: factors by μ* (unit-range elementary effects)"
+            )?;
+            let mut ranked: Vec<&FactorEffect> = effects.iter().collect();
+            ranked.sort_by(|a, b| {
+                b.mu_star
+                    .unwrap_or(f64::NEG_INFINITY)
+                    .total_cmp(&a.mu_star.unwrap_or(f64::NEG_INFINITY))
+            });
+            for e in ranked {
+                let show = |v: Option<f64>| v.map_or("—".into(), |v| format!("{v:.4e}"));
+                writeln!(
+                    f,
+                    "  {:<40} μ* {}  μ {}  σ {}  ({} effects)",
+                    e.name,
+                    show(e.mu_star),
+                    show(e.mu),
+                    show(e.sigma),
+                    e.effects
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The design: each run's factor values (physical units) and, for Morris, its trajectory.
+enum Design {
+    Morris(MorrisDesign),
+    Sweep(Vec<Vec<f64>>),
+}
+
+impl Design {
+    fn of(ls: &LoadedStudy) -> Result<Design, StudyRunError> {
+        let factors = &ls.study.factors;
+        Ok(match ls.study.method {
+            StudyMethod::Morris => {
+                let m = ls.morris();
+                let factors = factors
+                    .iter()
+                    .map(|f| Factor::new(&f.key, f.min.unwrap_or(0.0), f.max.unwrap_or(1.0)))
+                    .collect();
+                let options = MorrisOptions {
+                    trajectories: m.trajectories,
+                    pool: m.pool,
+                    levels: m.levels,
+                    seed: m.seed,
+                };
+                Design::Morris(
+                    MorrisDesign::new(factors, &options)
+                        .map_err(|e| StudyRunError::Design(e.to_string()))?,
+                )
+            }
+            StudyMethod::Sweep => Design::Sweep(sweep_points(
+                &factors
+                    .iter()
+                    .map(|f| f.values.clone().unwrap_or_default())
+                    .collect::<Vec<_>>(),
+            )),
+        })
+    }
+
+    fn records(&self) -> Vec<RunRecord> {
+        let blank = |values: Vec<f64>, trajectory| RunRecord {
+            values,
+            trajectory,
+            status: String::new(),
+            outputs: Vec::new(),
+        };
+        match self {
+            Design::Morris(d) => {
+                let per = d.factors().len() + 1;
+                d.points()
+                    .enumerate()
+                    .map(|(k, v)| blank(v, Some(k / per)))
+                    .collect()
+            }
+            Design::Sweep(points) => points.iter().map(|v| blank(v.clone(), None)).collect(),
+        }
+    }
+}
+
+/// The deck of one design point: the base deck with the fixed numbers, then the factors'
+/// numbers, replaced.
+fn point_deck(ls: &LoadedStudy, values: &[f64]) -> Result<String, String> {
+    let mut text = ls.base.src.clone();
+    for f in &ls.study.fixed {
+        text = set_number(&text, &crate::deck::KeyPath::parse(&f.key), f.value)?;
+    }
+    for (key, &v) in ls.keys.iter().zip(values) {
+        text = set_number(&text, key, v)?;
+    }
+    Ok(text)
+}
+
+fn describe(ls: &LoadedStudy, values: &[f64]) -> String {
+    ls.study
+        .factors
+        .iter()
+        .zip(values)
+        .map(|(f, v)| format!("{} = {v}", f.key))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The design's runs, every point's deck validated and its model built (as `peridyn check`
+/// does: the time step against the stable one, memory), so that no run fails on its deck
+/// after others have run; nothing is stepped.
+fn plan(
+    ls: &LoadedStudy,
+    threads: Option<usize>,
+) -> Result<(Design, Vec<RunRecord>, Vec<LoadedDeck>), StudyRunError> {
+    let design = Design::of(ls)?;
+    let runs = design.records();
+    let mut decks = Vec::with_capacity(runs.len());
+    for (k, run) in runs.iter().enumerate() {
+        let point = |error: String| StudyRunError::Point {
+            run: k,
+            values: describe(ls, &run.values),
+            error,
+        };
+        let text = point_deck(ls, &run.values).map_err(StudyRunError::Design)?;
+        let deck = LoadedDeck::from_str(&text, &ls.base.file).map_err(|e| point(e.to_string()))?;
+        check(&deck, threads).map_err(|e| point(e.to_string()))?;
+        decks.push(deck);
+    }
+    Ok((design, runs, decks))
+}
+
+/// The runs a study would make, each point's deck validated: `peridyn study --dry-run`.
+pub fn plan_study(
+    ls: &LoadedStudy,
+    threads: Option<usize>,
+) -> Result<Vec<RunRecord>, StudyRunError> {
+    Ok(plan(ls, threads)?.1)
+}
+
+/// Runs the study (or continues it) in `opts.out_dir`.
+pub fn run_study(ls: &LoadedStudy, opts: &StudyOptions) -> Result<StudyReport, StudyRunError> {
+    let (design, mut runs, decks) = plan(ls, opts.threads)?;
+    let io = |what: &str, path: &Path, e: std::io::Error| {
+        StudyRunError::Io(format!("cannot {what} {}: {e}", path.display()))
+    };
+    let runs_dir = opts.out_dir.join("runs");
+    std::fs::create_dir_all(&runs_dir).map_err(|e| io("create", &runs_dir, e))?;
+    write_atomic(&opts.out_dir.join("study.toml"), ls.src.as_bytes())
+        .map_err(|e| io("write", &opts.out_dir.join("study.toml"), e))?;
+    let table_path = opts.out_dir.join("runs.csv");
+    let header = runs_header(ls);
+    let reused = resume(&table_path, &header, &mut runs, |k| {
+        std::fs::read_to_string(runs_dir.join(format!("run_{k:04}")).join("deck.toml")).ok()
+            == Some(decks[k].src.clone())
+    });
+    let total = runs.len();
+    for k in 0..total {
+        if !runs[k].status.is_empty() {
+            continue;
+        }
+        let dir = runs_dir.join(format!("run_{k:04}"));
+        if dir.exists() {
+            // A run the last invocation did not finish: start it again.
+            std::fs::remove_dir_all(&dir).map_err(|e| io("clear", &dir, e))?;
+        }
+        std::fs::create_dir_all(&dir).map_err(|e| io("create", &dir, e))?;
+        write_atomic(&dir.join("deck.toml"), decks[k].src.as_bytes())
+            .map_err(|e| io("write", &dir.join("deck.toml"), e))?;
+        let started = Instant::now();
+        let run_opts = RunOptions {
+            out_dir: dir.clone(),
+            threads: opts.threads,
+            quiet: true,
+        };
+        let result = run_with(&decks[k], &run_opts, &RunControl::default());
+        let run = &mut runs[k];
+        match result {
+            Ok(_) => {
+                run.status = "ok".into();
+                run.outputs = read_outputs(ls, &dir)?;
+            }
+            Err(e) => {
+                // One line, no commas: the status is a CSV cell.
+                let message = e.to_string().replace(['\n', ','], " ");
+                run.status = format!("failed: {message}");
+                run.outputs = vec![None; ls.study.outputs.len()];
+            }
+        }
+        write_runs(&table_path, &header, &runs).map_err(|e| io("write", &table_path, e))?;
+        let run = &runs[k];
+        if !opts.quiet {
+            let outputs = ls
+                .study
+                .outputs
+                .iter()
+                .zip(&run.outputs)
+                .map(|(o, v)| {
+                    format!(
+                        "{} = {}",
+                        o.name,
+                        v.map_or("—".into(), |v| format!("{v:.5e}"))
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
+            let status = if run.status == "ok" { "" } else { " FAILED" };
+            println!(
+                "run {}/{total}{status} ({:.1} s): {} → {outputs}",
+                k + 1,
+                started.elapsed().as_secs_f64(),
+                describe(ls, &run.values),
+            );
+        }
+    }
+    let effects = match &design {
+        Design::Morris(d) => morris_results(ls, d, &runs, &opts.out_dir)?,
+        Design::Sweep(_) => {
+            sweep_plots(ls, &runs, &opts.out_dir)?;
+            Vec::new()
+        }
+    };
+    Ok(StudyReport {
+        method: ls.study.method,
+        factors: ls.study.factors.iter().map(|f| f.key.clone()).collect(),
+        runs,
+        reused,
+        effects,
+        out_dir: opts.out_dir.clone(),
+    })
+}
+
+/// The outputs of a finished run, read from its folder. A missing file or column is the study
+/// file's mistake (every run would miss it), not the run's: it stops the study.
+fn read_outputs(ls: &LoadedStudy, dir: &Path) -> Result<Vec<Option<f64>>, StudyRunError> {
+    ls.study
+        .outputs
+        .iter()
+        .enumerate()
+        .map(|(index, o)| {
+            let fail = |message: String| StudyRunError::Output {
+                study: ls.file.display().to_string(),
+                index,
+                name: o.name.clone(),
+                message,
+            };
+            let path = dir.join(&o.file);
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                fail(format!(
+                    "the run wrote no {} ({e}); does the deck ask for it?",
+                    o.file
+                ))
+            })?;
+            let table =
+                Table::parse(&text).map_err(|e| fail(format!("{}: {e}", path.display())))?;
+            table
+                .reduce(&o.column, reduction(o), o.until)
+                .map_err(|e| fail(format!("{}: {e}", o.file)))
+        })
+        .collect()
+}
+
+fn reduction(o: &OutputSpec) -> Reduction {
+    match o.reduce {
+        Reduce::Final => Reduction::Final,
+        Reduce::Max => Reduction::Max,
+        Reduce::Min => Reduction::Min,
+        Reduce::MaxAbs => Reduction::MaxAbs,
+        Reduce::FirstTimeAbove => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),
+    }
+}
+
+fn runs_header(ls: &LoadedStudy) -> Vec<String> {
+    let mut h = vec!["run".to_string()];
+    if ls.study.method == StudyMethod::Morris {
+        h.push("trajectory".into());
+    }
+    h.extend(ls.study.factors.iter().map(|f| f.key.clone()));
+    h.extend(ls.study.outputs.iter().map(|o| o.name.clone()));
+    h.push("status".into());
+    h
+}
+
+/// `runs.csv`: one row per run of the design, values written so that they read back exactly
+/// (Rust's shortest round-trip form); outputs of runs not (yet) run or failed left empty.
+fn write_runs(path: &Path, header: &[String], runs: &[RunRecord]) -> std::io::Result<()> {
+    let mut text = header.join(",") + "\n";
+    for (k, r) in runs.iter().enumerate() {
+        let mut cells = vec![k.to_string()];
+        if let Some(t) = r.trajectory {
+            cells.push(t.to_string());
+        }
+        cells.extend(r.values.iter().map(|v| v.to_string()));
+        for k in 0..header.len() - cells.len() - 1 {
+            cells.push(
+                r.outputs
+                    .get(k)
+                    .copied()
+                    .flatten()
+                    .map_or(String::new(), |v| v.to_string()),
+            );
+        }
+        cells.push(r.status.clone());
+        text += &(cells.join(",") + "\n");
+    }
+    write_atomic(path, text.as_bytes())
+}
+
+/// Takes the finished runs of an earlier invocation's `runs.csv` (same columns, same factor
+/// values, a status, and a run folder whose deck is the one this run would run: a changed base
+/// deck or `fixed` number runs everything again): returns how many.
+fn resume(
+    path: &Path,
+    header: &[String],
+    runs: &mut [RunRecord],
+    same_deck: impl Fn(usize) -> bool,
+) -> usize {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return 0;
+    };
+    let mut lines = text.lines();
+    if lines.next().map(|h| h.split(',').collect::<Vec<_>>())
+        != Some(header.iter().map(|s| s.as_str()).collect())
+    {
+        return 0;
+    }
+    let mut reused = 0;
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        if cells.len() != header.len() {
+            continue;
+        }
+        let Some(k) = cells[0].parse::<usize>().ok().filter(|&k| k < runs.len()) else {
+            continue;
+        };
+        let run = &mut runs[k];
+        let first = if run.trajectory.is_some() { 2 } else { 1 };
+        let n = run.values.len();
+        let same = cells[first..first + n]
+            .iter()
+            .zip(&run.values)
+            .all(|(c, v)| c.parse::<f64>().ok() == Some(*v));
+        let status = cells[cells.len() - 1];
+        if !same || status.is_empty() || !same_deck(k) {
+            continue;
+        }
+        run.outputs = cells[first + n..cells.len() - 1]
+            .iter()
+            .map(|c| c.parse::<f64>().ok())
+            .collect();
+        run.status = status.to_string();
+        reused += 1;
+    }
+    reused
+}
+
+/// Morris statistics of every output, `morris.csv` and the μ*–σ plots.
+fn morris_results(
+    ls: &LoadedStudy,
+    design: &MorrisDesign,
+    runs: &[RunRecord],
+    out: &Path,
+) -> Result<Vec<(String, Vec<FactorEffect>)>, StudyRunError> {
+    let mut results = Vec::new();
+    let mut text = String::from("output,factor,mu_star,mu,sigma,effects,range\n");
+    let plots = out.join("plots");
+    std::fs::create_dir_all(&plots)
+        .map_err(|e| StudyRunError::Io(format!("cannot create {}: {e}", plots.display())))?;
+    for (k, o) in ls.study.outputs.iter().enumerate() {
+        let ys: Vec<Option<f64>> = runs
+            .iter()
+            .map(|r| r.outputs.get(k).copied().flatten())
+            .collect();
+        let effects =
+            morris_statistics(design, &ys).map_err(|e| StudyRunError::Design(e.to_string()))?;
+        let cell = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+        for (e, f) in effects.iter().zip(&ls.study.factors) {
+            text += &format!(
+                "{},{},{},{},{},{},{}\n",
+                o.name,
+                e.name,
+                cell(e.mu_star),
+                cell(e.mu),
+                cell(e.sigma),
+                e.effects,
+                f.max.unwrap_or(0.0) - f.min.unwrap_or(0.0)
+            );
+        }
+        let points: Vec<_> = effects
+            .iter()
+            .map(|e| (e.name.clone(), e.mu_star, e.sigma))
+            .collect();
+        let path = plots.join(format!("morris_{}.png", o.name));
+        write_morris_png(&path, &format!("Morris screening: {}", o.name), &points)
+            .map_err(|e| StudyRunError::Io(e.to_string()))?;
+        results.push((o.name.clone(), effects));
+    }
+    let path = out.join("morris.csv");
+    write_atomic(&path, text.as_bytes())
+        .map_err(|e| StudyRunError::Io(format!("cannot write {}: {e}", path.display())))?;
+    Ok(results)
+}
+
+/// A sweep of one factor: each output against it.
+fn sweep_plots(ls: &LoadedStudy, runs: &[RunRecord], out: &Path) -> Result<(), StudyRunError> {
+    let [factor] = &ls.study.factors[..] else {
+        return Ok(());
+    };
+    let plots = out.join("plots");
+    std::fs::create_dir_all(&plots)
+        .map_err(|e| StudyRunError::Io(format!("cannot create {}: {e}", plots.display())))?;
+    for (k, o) in ls.study.outputs.iter().enumerate() {
+        let points: Vec<(f64, f64)> = runs
+            .iter()
+            .map(|r| {
+                (
+                    r.values[0],
+                    r.outputs.get(k).copied().flatten().unwrap_or(f64::NAN),
+                )
+            })
+            .collect();
+        let path = plots.join(format!("sweep_{}.png", o.name));
+        write_named_curves_png(
+            &path,
+            &format!("{} against {}", o.name, factor.key),
+            &factor.key,
+            &o.name,
+            &[(o.name.clone(), points)],
+        )
+        .map_err(|e| StudyRunError::Io(e.to_string()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,250 @@
+//! Parameter studies (`peridyn study`): a Morris screening and a sweep of the quasi-static
+//! tension example, on a coarse grid, where the answer is known: the grip reaction of an
+//! elastic plate is proportional to E and to the grip displacement and does not depend on
+//! the density. Also: a stopped study continues where it stopped with the same results, and
+//! bad study files are refused at their line and key.
+
+use peridyn::deck::study::LoadedStudy;
+use peridyn::study_run::{plan_study, run_study, StudyOptions};
+use std::path::{Path, PathBuf};
+
+fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("peridyn-study-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn example(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+/// A study file in `dir` on the quasi-static tension example (a 50 × 50 grid).
+fn study_file(dir: &Path, body: &str) -> PathBuf {
+    let text = format!(
+        r#"version = 1
+deck = "{}"
+{body}
+[[fixed]]
+key = "discretization.spacing"
+value = 2.0e-3
+[[outputs]]
+name = "reaction"
+column = "reaction_top_y"
+reduce = "final"
+"#,
+        example("quasi_static_tension.toml").replace('\\', "/")
+    );
+    let path = dir.join("study.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+const MORRIS: &str = r#"method = "morris"
+[morris]
+trajectories = 3
+pool = 6
+levels = 4
+seed = 11
+[[factors]]
+key = "material.youngs_modulus"
+min = 1.0e9
+max = 2.0e9
+[[factors]]
+key = "material.density"
+min = 500.0
+max = 2000.0
+"#;
+
+fn options(dir: &Path) -> StudyOptions {
+    StudyOptions {
+        out_dir: dir.join("out"),
+        threads: Some(2),
+        quiet: true,
+    }
+}
+
+#[test]
+fn morris_screening_finds_the_linear_factor_and_the_idle_one() {
+    let dir = scratch("morris");
+    let ls = LoadedStudy::from_file(&study_file(&dir, MORRIS)).unwrap();
+    let report = run_study(&ls, &options(&dir)).unwrap();
+    assert_eq!(report.runs.len(), 3 * 3);
+    assert_eq!(report.failed(), 0);
+    // Every run: R/E is the same number (R ∝ E), to the relaxation's tolerance.
+    let ratios: Vec<f64> = report
+        .runs
+        .iter()
+        .map(|r| r.outputs[0].unwrap() / r.values[0])
+        .collect();
+    let k = ratios[0];
+    assert!(k > 0.0);
+    let spread = ratios
+        .iter()
+        .map(|r| (r / k - 1.0).abs())
+        .fold(0.0, f64::max);
+    println!(
+        "R/E = {k:.6e} N/Pa over {} runs, spread {spread:.2e}",
+        ratios.len()
+    );
+    assert!(spread < 1e-5, "R/E varies by {spread}");
+    // Morris: the elementary effect of E (unit range) is k (hi − lo) in every trajectory, so
+    // μ = μ* = that and σ ≈ 0; the density does nothing.
+    let (name, effects) = &report.effects[0];
+    assert_eq!(name, "reaction");
+    let (e, rho) = (&effects[0], &effects[1]);
+    assert_eq!(e.effects, 3);
+    let expected = k * 1.0e9;
+    println!(
+        "E: μ* = {:.6e} (expected {expected:.6e}), σ = {:.2e}; ρ: μ* = {:.2e}",
+        e.mu_star.unwrap(),
+        e.sigma.unwrap(),
+        rho.mu_star.unwrap()
+    );
+    assert!((e.mu.unwrap() / expected - 1.0).abs() < 1e-4);
+    assert!((e.mu_star.unwrap() / expected - 1.0).abs() < 1e-4);
+    assert!(e.sigma.unwrap() < 1e-4 * expected);
+    assert!(
+        rho.mu_star.unwrap() < 1e-6 * expected,
+        "the density changed the reaction"
+    );
+    // The files: runs.csv (a row per run), morris.csv, the plot, each run's deck.
+    let out = dir.join("out");
+    let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert!(runs
+        .starts_with("run,trajectory,material.youngs_modulus,material.density,reaction,status\n"));
+    assert_eq!(runs.lines().count(), 10);
+    let morris = std::fs::read_to_string(out.join("morris.csv")).unwrap();
+    assert!(morris.contains("reaction,material.youngs_modulus,"));
+    assert!(out.join("plots/morris_reaction.png").exists());
+    let deck = std::fs::read_to_string(out.join("runs/run_0004/deck.toml")).unwrap();
+    assert!(
+        deck.contains("spacing = 0.002"),
+        "the fixed spacing is in every run's deck"
+    );
+}
+
+#[test]
+fn a_stopped_study_continues_with_the_same_results() {
+    let dir = scratch("resume");
+    let ls = LoadedStudy::from_file(&study_file(&dir, MORRIS)).unwrap();
+    let first = run_study(&ls, &options(&dir)).unwrap();
+    assert_eq!(first.reused, 0);
+    // As if stopped after three runs: the table keeps their rows only, and a fourth run's
+    // folder is left half written.
+    let table = dir.join("out/runs.csv");
+    let text = std::fs::read_to_string(&table).unwrap();
+    let kept: Vec<&str> = text.lines().take(4).collect();
+    std::fs::write(&table, kept.join("\n") + "\n").unwrap();
+    std::fs::write(dir.join("out/runs/run_0003/history.csv"), "time\n").unwrap();
+    let second = run_study(&ls, &options(&dir)).unwrap();
+    assert_eq!(second.reused, 3);
+    // Bitwise the same outputs (the runs are deterministic, and the reused ones read back
+    // exactly).
+    assert_eq!(first.runs, second.runs);
+    assert_eq!(first.effects, second.effects);
+    // A run whose deck changed (here: one run's deck edited by hand, as a changed base deck or
+    // fixed number would change every run's) is run again.
+    let deck = dir.join("out/runs/run_0005/deck.toml");
+    let edited = std::fs::read_to_string(&deck).unwrap() + "\n# edited\n";
+    std::fs::write(&deck, edited).unwrap();
+    let third = run_study(&ls, &options(&dir)).unwrap();
+    assert_eq!(third.reused, first.runs.len() - 1);
+    assert_eq!(first.runs, third.runs);
+    // A changed design does not reuse runs of another one.
+    let other = MORRIS.replace("seed = 11", "seed = 12");
+    let ls = LoadedStudy::from_file(&study_file(&dir, &other)).unwrap();
+    let planned = plan_study(&ls, Some(1)).unwrap();
+    assert_ne!(
+        planned.iter().map(|r| r.values.clone()).collect::<Vec<_>>(),
+        first
+            .runs
+            .iter()
+            .map(|r| r.values.clone())
+            .collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn a_sweep_of_the_grip_displacement_is_linear() {
+    let dir = scratch("sweep");
+    let body = r#"method = "sweep"
+[[factors]]
+key = "boundary_conditions[1].value"
+values = [2.0e-6, 4.0e-6, 6.0e-6]
+"#;
+    let ls = LoadedStudy::from_file(&study_file(&dir, body)).unwrap();
+    let report = run_study(&ls, &options(&dir)).unwrap();
+    let r: Vec<f64> = report.runs.iter().map(|r| r.outputs[0].unwrap()).collect();
+    println!("reactions {r:?}");
+    assert!((r[1] / r[0] - 2.0).abs() < 1e-4 && (r[2] / r[0] - 3.0).abs() < 1e-4);
+    assert!(report.effects.is_empty());
+    assert!(dir.join("out/plots/sweep_reaction.png").exists());
+}
+
+#[test]
+fn bad_study_files_are_refused_at_their_key() {
+    let dir = scratch("bad");
+    let cases = [
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"material.stiffness\"\nmin = 1.0\nmax = 2.0\n",
+            "factors[0].key: the deck has no number at `material.stiffness`",
+        ),
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"material.type\"\nmin = 1.0\nmax = 2.0\n",
+            "holds a string, not a number",
+        ),
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"material.density\"\nmin = 2.0\nmax = 1.0\n",
+            "factors[0].max: expected max above min",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nmin = 1.0\nmax = 2.0\n",
+            "a sweep factor takes `values`",
+        ),
+        (
+            "method = \"morris\"\n[morris]\ntrajectories = 1\n[[factors]]\nkey = \"material.density\"\nmin = 1.0\nmax = 2.0\n",
+            "morris.trajectories: r = 1 trajectories is too few",
+        ),
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"discretization.spacing\"\nmin = 1.0e-3\nmax = 2.0e-3\n",
+            "is also a factor",
+        ),
+        (
+            "method = \"screening\"\n",
+            "unknown variant `screening`",
+        ),
+    ];
+    for (body, expected) in cases {
+        let err = LoadedStudy::from_file(&study_file(&dir, body))
+            .unwrap_err()
+            .to_string();
+        println!("{err}");
+        assert!(err.contains(expected), "expected {expected:?} in {err}");
+        assert!(
+            err.contains("study.toml:"),
+            "the study file is named: {err}"
+        );
+    }
+    // An output the runs do not write stops the study after its first run, naming it.
+    let body = MORRIS.to_string()
+        + "[[outputs]]\nname = \"tip\"\nfile = \"crack_tip.csv\"\ncolumn = \"x\"\nreduce = \"final\"\n";
+    let ls = LoadedStudy::from_file(&study_file(&dir, &body)).unwrap();
+    let err = run_study(&ls, &options(&dir)).unwrap_err().to_string();
+    assert!(
+        err.contains("outputs[0] (`tip`): the run wrote no crack_tip.csv"),
+        "{err}"
+    );
+    // A design point whose deck cannot run is refused before anything runs.
+    let body = MORRIS.replace("min = 500.0", "min = -500.0");
+    let ls = LoadedStudy::from_file(&study_file(&dir, &body)).unwrap();
+    let err = run_study(&ls, &options(&dir)).unwrap_err().to_string();
+    assert!(
+        err.contains("cannot run") && err.contains("material.density = -"),
+        "{err}"
+    );
+}
