@@ -76,7 +76,11 @@ pub fn write_morris_png(
                 .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
             // The number beside the point, 8 pixels right and up.
             let number = EmptyElement::at((m, s))
-                + Text::new(format!("{}", k + 1), (8, -18), (font::FAMILY, 15).into_font());
+                + Text::new(
+                    format!("{}", k + 1),
+                    (8, -18),
+                    (font::FAMILY, 15).into_font(),
+                );
             chart.draw_series(std::iter::once(number)).map_err(err)?;
         }
         chart
