@@ -187,17 +187,27 @@ const fn history_words<const D: usize, M: Material<D>, Dm: DamageLaw>() -> usize
     crate::damage::history_words::<Dm>(bond_force::<D, M>())
 }
 
-/// Splits `data` into consecutive mutable pieces ending at each of `ends`.
-fn split_at_ends<T>(mut data: &mut [T], ends: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
-    let mut out = Vec::new();
+/// Splits `data` into consecutive mutable pieces ending at `scale` × each of `ends` (non-generic
+/// over the caller: one copy per element type).
+fn split_at_ends<'a, T>(mut data: &'a mut [T], ends: &[usize], scale: usize) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(ends.len());
     let mut start = 0;
-    for end in ends {
-        let (head, tail) = std::mem::take(&mut data).split_at_mut(end - start);
+    for &end in ends {
+        let (head, tail) = std::mem::take(&mut data).split_at_mut(end * scale - start);
         out.push(head);
         data = tail;
-        start = end;
+        start = end * scale;
     }
     out
+}
+
+/// Runs `job` on every item in parallel and returns its results in item order. The job is a
+/// trait object (one indirect call per node chunk) so that rayon's machinery is compiled once
+/// per item type instead of once per model, weight rule and damage law: `compute_with` has
+/// some twenty instances per model, and their parallel iterators were half the crate's code
+/// handed to the compiler.
+fn map_chunks<J: Send>(items: Vec<J>, job: &(dyn Fn(J) -> u64 + Sync)) -> Vec<u64> {
+    items.into_par_iter().map(job).collect()
 }
 
 impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
@@ -418,13 +428,14 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 state.current.len() * D,
             )
         };
-        let bond_ends = || self.chunks.iter().map(|c| bonds.offsets[c.end]);
+        let node_ends: Vec<usize> = self.chunks.iter().map(|c| c.end).collect();
+        let bond_ends: Vec<usize> = node_ends.iter().map(|&e| bonds.offsets[e]).collect();
 
         if M::NEEDS_PREPASS {
             let (material, chunks) = (&self.material, &self.chunks);
-            let status_chunks = split_at_ends(&mut state.status, bond_ends());
-            let history_chunks = split_at_ends(&mut state.history, bond_ends().map(|e| e * hw));
-            let point_chunks = split_at_ends(&mut self.points, chunks.iter().map(|c| c.end));
+            let status_chunks = split_at_ends(&mut state.status, &bond_ends, 1);
+            let history_chunks = split_at_ends(&mut state.history, &bond_ends, hw);
+            let point_chunks = split_at_ends(&mut self.points, &node_ends, 1);
             let sweep = Sweep {
                 current: &state.current,
                 positions: &body.positions,
@@ -433,52 +444,54 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 damage,
                 bonds,
             };
-            add(chunks
-                .par_iter()
+            let items: Vec<_> = (chunks.iter().cloned())
                 .zip(status_chunks)
                 .zip(history_chunks)
                 .zip(point_chunks)
-                .map(|(((nodes, status), history), points)| {
-                    let base = bonds.offsets[nodes.start];
-                    let mut broke = 0u64;
-                    for (k, i) in nodes.clone().enumerate() {
-                        let r = bonds.family(i);
-                        let status = &mut status[r.start - base..r.end - base];
-                        let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
-                        if let Some(w) = &vector {
-                            let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
-                            if D == 2 {
-                                nb = nb.planar();
-                            }
-                            if let Some(law) = softening {
-                                nb = nb.with_softening(law, history);
-                            } else if let Some(law) = work {
-                                // The pre-pass reads only the status under this law.
-                                nb = nb.with_work(law, history);
-                            }
-                            // SAFETY: AVX2 is available and neighbour indices are in bounds.
-                            if let Some(nb_broken) =
-                                unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
-                            {
-                                broke += nb_broken;
-                                continue;
-                            }
+                .collect();
+            add(map_chunks(items, &|(
+                ((nodes, status), history),
+                points,
+            )| {
+                let base = bonds.offsets[nodes.start];
+                let mut broke = 0u64;
+                for (k, i) in nodes.clone().enumerate() {
+                    let r = bonds.family(i);
+                    let status = &mut status[r.start - base..r.end - base];
+                    let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
+                    if let Some(w) = &vector {
+                        let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
+                        if D == 2 {
+                            nb = nb.planar();
                         }
-                        let mut acc = M::Point::default();
-                        broke += sweep.walk::<M>(i, r, status, history, true, |v| {
-                            material.accumulate(i, &mut acc, &v.geom);
-                            0
-                        });
-                        points[k] = material.finish_point(i, acc);
+                        if let Some(law) = softening {
+                            nb = nb.with_softening(law, history);
+                        } else if let Some(law) = work {
+                            // The pre-pass reads only the status under this law.
+                            nb = nb.with_work(law, history);
+                        }
+                        // SAFETY: AVX2 is available and neighbour indices are in bounds.
+                        if let Some(nb_broken) =
+                            unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
+                        {
+                            broke += nb_broken;
+                            continue;
+                        }
                     }
-                    broke
-                })
-                .collect::<Vec<u64>>());
+                    let mut acc = M::Point::default();
+                    broke += sweep.walk::<M>(i, r, status, history, true, |v| {
+                        material.accumulate(i, &mut acc, &v.geom);
+                        0
+                    });
+                    points[k] = material.finish_point(i, acc);
+                }
+                broke
+            }));
         }
 
-        let status_chunks = split_at_ends(&mut state.status, bond_ends());
-        let history_chunks = split_at_ends(&mut state.history, bond_ends().map(|e| e * hw));
-        let force_chunks = split_at_ends(&mut state.force, self.chunks.iter().map(|c| c.end));
+        let status_chunks = split_at_ends(&mut state.status, &bond_ends, 1);
+        let history_chunks = split_at_ends(&mut state.history, &bond_ends, hw);
+        let force_chunks = split_at_ends(&mut state.force, &node_ends, 1);
         let (material, points) = (&self.material, &self.points);
         let previous = &state.previous;
         // SAFETY: as for `flat` (empty unless a non-central model records work).
@@ -495,125 +508,125 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         };
         // A two-pass model decided stretch-based failure in its pre-pass.
         let decide = !M::NEEDS_PREPASS;
-        add(self
-            .chunks
-            .par_iter()
+        let items: Vec<_> = (self.chunks.iter().cloned())
             .zip(status_chunks)
             .zip(history_chunks)
             .zip(force_chunks)
-            .map(|(((nodes, status), history), forces)| {
-                let base = bonds.offsets[nodes.start];
-                let mut broke = 0u64;
-                for (k, i) in nodes.clone().enumerate() {
-                    let r = bonds.family(i);
-                    let status = &mut status[r.start - base..r.end - base];
-                    let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
-                    if let Some(w) = &vector {
-                        let mut nb =
-                            NodeBonds::of(i, flat, bonds, status, no_fail, decide.then_some(s0));
-                        if D == 2 {
-                            nb = nb.planar();
-                        }
-                        if let Some(law) = softening {
-                            nb = nb.with_softening(law, history);
-                        } else if let Some(law) = work {
-                            nb = nb.with_work(law, history).with_previous(previous_flat);
-                        }
-                        // SAFETY: AVX2 is available and neighbour indices are in bounds.
-                        if let Some((f, nb_broken)) =
-                            unsafe { material.vector_force(&mut nb, w, points) }
-                        {
-                            forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
-                            broke += nb_broken;
-                            continue;
-                        }
+            .collect();
+        add(map_chunks(items, &|(
+            ((nodes, status), history),
+            forces,
+        )| {
+            let base = bonds.offsets[nodes.start];
+            let mut broke = 0u64;
+            for (k, i) in nodes.clone().enumerate() {
+                let r = bonds.family(i);
+                let status = &mut status[r.start - base..r.end - base];
+                let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
+                if let Some(w) = &vector {
+                    let mut nb =
+                        NodeBonds::of(i, flat, bonds, status, no_fail, decide.then_some(s0));
+                    if D == 2 {
+                        nb = nb.planar();
                     }
-                    let pi = &points[i];
-                    let mut f = Vector::<D>::zeros();
-                    if M::FACTORED_OWN_HALF && !Dm::ON_WORK {
-                        // The own halves through node i's matrices once: sum s ξ and s η
-                        // over the family, evaluate only the other half per bond.
-                        let (mut sum_xi, mut sum_eta) =
-                            (Vector::<D>::zeros(), Vector::<D>::zeros());
-                        broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
-                            let g = &v.geom;
-                            let s = material.own_half_weight(i, g);
-                            sum_xi += g.xi * s;
-                            sum_eta += (g.y - g.xi) * s;
-                            f += material.other_half(i, v.j, g, &points[v.j]);
-                            0
-                        });
-                        forces[k] = f + material.own_half_force(i, pi, &sum_xi, &sum_eta);
+                    if let Some(law) = softening {
+                        nb = nb.with_softening(law, history);
+                    } else if let Some(law) = work {
+                        nb = nb.with_work(law, history).with_previous(previous_flat);
+                    }
+                    // SAFETY: AVX2 is available and neighbour indices are in bounds.
+                    if let Some((f, nb_broken)) =
+                        unsafe { material.vector_force(&mut nb, w, points) }
+                    {
+                        forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
+                        broke += nb_broken;
                         continue;
                     }
-                    broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
-                        let Visit {
-                            j,
-                            mut geom,
-                            status,
-                            history,
-                            protected,
-                        } = v;
-                        let pj = &points[j];
-                        if !Dm::ON_WORK {
-                            f += pair_force(material, i, j, &geom, pi, pj);
-                            return 0;
-                        }
-                        // Energy-based failure needs the pair force first: record its work since
-                        // the previous evaluation, then drop the halves that broke.
-                        let extension = geom.len - geom.ref_len;
-                        let (force, work) = if M::CENTRAL {
-                            let per_length = material.pair_force_per_length(i, j, &geom, pi, pj);
-                            let along = per_length * geom.len;
-                            let work = if M::LINEAR_BOND && Dm::CLOSED_FORM_WORK {
-                                Work::Stored {
-                                    energy: 0.5 * along * extension,
-                                }
-                            } else {
-                                Work::Along {
-                                    force: along,
-                                    extension,
-                                }
-                            };
-                            (geom.y * per_length, work)
-                        } else {
-                            let force = material.pair_force(i, j, &geom, pi, pj);
-                            let step = geom.y - (previous[j] - previous[i]);
-                            (
-                                force,
-                                Work::Vector {
-                                    force: to3(&force),
-                                    step: to3(&step),
-                                },
-                            )
-                        };
-                        let before = *status;
-                        let broke = damage.on_work(
-                            i,
-                            j,
-                            work,
-                            extension,
-                            0.5 * (geom.phi_ij + geom.phi_ji),
-                            protected,
-                            history,
-                            status,
-                        );
-                        if *status == BROKEN {
-                            return broke;
-                        }
-                        if *status != before {
-                            (geom.mu_ij, geom.mu_ji) = damage.factors(i, j, history, *status);
-                            f += pair_force(material, i, j, &geom, pi, pj);
-                        } else {
-                            f += force * geom.vol_j;
-                        }
-                        broke
-                    });
-                    forces[k] = f;
                 }
-                broke
-            })
-            .collect::<Vec<u64>>());
+                let pi = &points[i];
+                let mut f = Vector::<D>::zeros();
+                if M::FACTORED_OWN_HALF && !Dm::ON_WORK {
+                    // The own halves through node i's matrices once: sum s ξ and s η
+                    // over the family, evaluate only the other half per bond.
+                    let (mut sum_xi, mut sum_eta) = (Vector::<D>::zeros(), Vector::<D>::zeros());
+                    broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
+                        let g = &v.geom;
+                        let s = material.own_half_weight(i, g);
+                        sum_xi += g.xi * s;
+                        sum_eta += (g.y - g.xi) * s;
+                        f += material.other_half(i, v.j, g, &points[v.j]);
+                        0
+                    });
+                    forces[k] = f + material.own_half_force(i, pi, &sum_xi, &sum_eta);
+                    continue;
+                }
+                broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
+                    let Visit {
+                        j,
+                        mut geom,
+                        status,
+                        history,
+                        protected,
+                    } = v;
+                    let pj = &points[j];
+                    if !Dm::ON_WORK {
+                        f += pair_force(material, i, j, &geom, pi, pj);
+                        return 0;
+                    }
+                    // Energy-based failure needs the pair force first: record its work since
+                    // the previous evaluation, then drop the halves that broke.
+                    let extension = geom.len - geom.ref_len;
+                    let (force, work) = if M::CENTRAL {
+                        let per_length = material.pair_force_per_length(i, j, &geom, pi, pj);
+                        let along = per_length * geom.len;
+                        let work = if M::LINEAR_BOND && Dm::CLOSED_FORM_WORK {
+                            Work::Stored {
+                                energy: 0.5 * along * extension,
+                            }
+                        } else {
+                            Work::Along {
+                                force: along,
+                                extension,
+                            }
+                        };
+                        (geom.y * per_length, work)
+                    } else {
+                        let force = material.pair_force(i, j, &geom, pi, pj);
+                        let step = geom.y - (previous[j] - previous[i]);
+                        (
+                            force,
+                            Work::Vector {
+                                force: to3(&force),
+                                step: to3(&step),
+                            },
+                        )
+                    };
+                    let before = *status;
+                    let broke = damage.on_work(
+                        i,
+                        j,
+                        work,
+                        extension,
+                        0.5 * (geom.phi_ij + geom.phi_ji),
+                        protected,
+                        history,
+                        status,
+                    );
+                    if *status == BROKEN {
+                        return broke;
+                    }
+                    if *status != before {
+                        (geom.mu_ij, geom.mu_ji) = damage.factors(i, j, history, *status);
+                        f += pair_force(material, i, j, &geom, pi, pj);
+                    } else {
+                        f += force * geom.vol_j;
+                    }
+                    broke
+                });
+                forces[k] = f;
+            }
+            broke
+        }));
 
         if Dm::ON_WORK && !M::CENTRAL {
             state.previous.clone_from(&state.current);

@@ -47,7 +47,7 @@ fn small_quickstart() -> LoadedDeck {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/quickstart.toml");
     let mut ld = LoadedDeck::from_file(&path).unwrap();
     match &mut ld.deck.discretization {
-        Discretization::Lattice { spacing, .. } => *spacing = 0.2e-3,
+        Discretization::Lattice { spacing, .. } => *spacing = 0.25e-3,
         other => panic!("quickstart is expected to use a lattice, found {other:?}"),
     }
     match &mut ld.deck.solver {
@@ -182,11 +182,11 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
         ),
         (
             "pmb-bilinear",
-            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"bilinear\", tensile_strength = 60e6 }",
+            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"bilinear\", tensile_strength = 50e6 }",
         ),
         (
             "pmb-trilinear-porous",
-            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"trilinear\", tensile_strength = 60e6 }\nporosity = { porosity = 0.01, seed = 3 }",
+            "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"trilinear\", tensile_strength = 50e6 }\nporosity = { porosity = 0.01, seed = 3 }",
         ),
     ];
     for (label, text) in cases {
@@ -216,7 +216,7 @@ fn every_model_and_damage_law_is_bitwise_identical_with_1_and_2_threads() {
     // A correspondence block breaking on energy beside a softening PMB block: the vector
     // mixed path with every kind of history.
     ld.deck.material = pmma(
-        "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"bilinear\", tensile_strength = 60e6 }",
+        "type = \"pmb\"\nfracture_energy = 300.0\ndamage = { type = \"bilinear\", tensile_strength = 50e6 }",
     );
     ld.deck.materials.insert(
         "lps".into(),
