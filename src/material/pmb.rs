@@ -264,9 +264,6 @@ impl<const D: usize> Material<D> for Pmb {
         w: &UniformWeights,
         _: &[()],
     ) -> Option<([f64; 3], u64)> {
-        if nb.dim != 3 && nb.work.is_none() {
-            return None; // 2D: only the critical-energy kernel
-        }
         let c0 = self.c0.uniform()?;
         let law = simd::PmbLaw {
             c0,

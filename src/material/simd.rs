@@ -38,7 +38,8 @@ pub fn fma_available() -> bool {
 /// The family of node i as a kernel sees it.
 pub struct NodeBonds<'a> {
     pub i: usize,
-    /// Dimension: 3, or 2 for the kernels that implement it (`simd_energy`; see `planar`).
+    /// Dimension: 3, or 2 for the kernels that implement it (PMB under a critical stretch,
+    /// `simd_energy`; see `planar`).
     pub dim: usize,
     /// Current positions, flat x, y, z (x, y in 2D).
     pub current: &'a [f64],
@@ -111,6 +112,14 @@ impl<'a> NodeBonds<'a> {
         self
     }
 
+    /// Node k's current position, z = 0 in 2D (so that a 3D length, (x² + y²) + z², is the
+    /// 2D one to the bit).
+    #[inline(always)]
+    pub fn position(&self, k: usize) -> [f64; 3] {
+        let c = &self.current[self.dim * k..self.dim * k + self.dim];
+        [c[0], c[1], if self.dim == 3 { c[2] } else { 0.0 }]
+    }
+
     /// The same family under a uniform critical-energy law with its work records (none for a
     /// linear bond, two words per bond for another central force, four for a vector force;
     /// `damage::critical_energy`). Failure is then decided from the work in the force pass,
@@ -161,22 +170,15 @@ pub(crate) fn tail(
     mut f: impl FnMut(usize, usize, f64, [f64; 3], f64),
 ) -> u64 {
     let i = nb.i;
-    let (xi, yi, zi) = (
-        nb.current[3 * i],
-        nb.current[3 * i + 1],
-        nb.current[3 * i + 2],
-    );
+    let own = nb.position(i);
     let mut broke = 0;
     for b in from..nb.neighbors.len() {
         if nb.status[b] != INTACT {
             continue;
         }
         let j = nb.neighbors[b] as usize;
-        let d = [
-            nb.current[3 * j] - xi,
-            nb.current[3 * j + 1] - yi,
-            nb.current[3 * j + 2] - zi,
-        ];
+        let y = nb.position(j);
+        let d = [y[0] - own[0], y[1] - own[1], y[2] - own[2]];
         let len = length(&d);
         let l = nb.ref_lengths[b];
         if let Some(s0) = nb.s0 {
@@ -236,9 +238,15 @@ pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) ->
     #[cfg(target_arch = "x86_64")]
     {
         match (nb.softening, nb.work) {
-            (Some(soft), _) => crate::material::simd_damage::pmb_force_softening(nb, law, w, &soft),
+            (Some(soft), _) if nb.dim == 2 => {
+                crate::material::simd_damage::pmb_force_softening::<2>(nb, law, w, &soft)
+            }
+            (Some(soft), _) => {
+                crate::material::simd_damage::pmb_force_softening::<3>(nb, law, w, &soft)
+            }
             (None, Some(work)) => crate::material::simd_energy::pmb_force_work(nb, law, w, &work),
-            (None, None) => avx::pmb_force(nb, law, w),
+            (None, None) if nb.dim == 2 => avx::pmb_force::<2>(nb, law, w),
+            (None, None) => avx::pmb_force::<3>(nb, law, w),
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -308,6 +316,41 @@ pub(crate) mod avx {
             _mm256_mul_pd(dz, dz),
         ));
         [dx, dy, dz, len]
+    }
+
+    /// Deformed bond vectors (x, y, and z = 0) and lengths of bonds b..b+4 in 2D, as
+    /// `bond_vectors` in 3D (the generic loop's |y| = sqrt(x² + y²)).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn bond_vectors_2d(
+        nb: &NodeBonds,
+        b: usize,
+        yi: [__m256d; 3],
+    ) -> [__m256d; 4] {
+        let base = nb.current.as_ptr();
+        let row = |lane: usize| _mm_loadu_pd(base.add(2 * nb.neighbors[b + lane] as usize));
+        // [x0, y0, x2, y2] and [x1, y1, x3, y3].
+        let even = _mm256_set_m128d(row(2), row(0));
+        let odd = _mm256_set_m128d(row(3), row(1));
+        let dx = _mm256_sub_pd(_mm256_unpacklo_pd(even, odd), yi[0]);
+        let dy = _mm256_sub_pd(_mm256_unpackhi_pd(even, odd), yi[1]);
+        let len = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)));
+        [dx, dy, _mm256_setzero_pd(), len]
+    }
+
+    /// `bond_vectors` in 3D, `bond_vectors_2d` in 2D.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn bond_vectors_in<const D: usize>(
+        nb: &NodeBonds,
+        b: usize,
+        yi: [__m256d; 3],
+    ) -> [__m256d; 4] {
+        if D == 3 {
+            bond_vectors(nb, b, yi)
+        } else {
+            bond_vectors_2d(nb, b, yi)
+        }
     }
 
     /// Asks for the cache line `AHEAD` bytes past `p` in a per-bond array. The bond arrays are
@@ -437,23 +480,21 @@ pub(crate) mod avx {
         (a[0] + a[1]) + (a[2] + a[3])
     }
 
+    /// Node i's position on four lanes (z = 0 in 2D).
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(crate) unsafe fn own_position(nb: &NodeBonds) -> [__m256d; 3] {
-        let i = nb.i;
-        [
-            _mm256_set1_pd(nb.current[3 * i]),
-            _mm256_set1_pd(nb.current[3 * i + 1]),
-            _mm256_set1_pd(nb.current[3 * i + 2]),
-        ]
+        nb.position(nb.i).map(|c| _mm256_set1_pd(c))
     }
 
+    /// PMB under one critical stretch in dimension D (`nb.dim`; z = 0 in 2D).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn pmb_force(
+    pub(super) unsafe fn pmb_force<const D: usize>(
         nb: &mut NodeBonds,
         law: &PmbLaw,
         w: &UniformWeights,
     ) -> ([f64; 3], u64) {
+        debug_assert_eq!(nb.dim, D);
         let yi = own_position(nb);
         let volume = _mm256_set1_pd(w.node.volume);
         let mut acc = [_mm256_setzero_pd(); 3];
@@ -461,7 +502,7 @@ pub(crate) mod avx {
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
-            let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+            let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = fail_and_keep(nb, b, len, l, &mut broke);
             let coef = _mm256_mul_pd(pmb_per_length(law, l, len, phi(w, l)), volume);

@@ -1,4 +1,4 @@
-//! AVX2 bond loops for damage laws other than one critical stretch (x86-64, 3D, uniform
+//! AVX2 bond loops for damage laws other than one critical stretch (x86-64, 2D and 3D, uniform
 //! grids): the PMB force under a uniform softening law. Same law, history update, failure
 //! rule and arithmetic as the generic loop (`solver::forces`, `UniformSoftening::on_stretch`
 //! and `factors`); only the order of a node's bond terms differs (four lanes, then the tail),
@@ -7,7 +7,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::simd::avx::{
-    add_force, bond_vectors, intact, own_position, phi, pmb_per_length, prefetch, sum,
+    add_force, bond_vectors_in, intact, own_position, phi, pmb_per_length, prefetch, sum,
 };
 use super::simd::{length, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
@@ -53,19 +53,21 @@ fn soften_one(
     Some(soft.factors(i, j, &nb.history[b..b + 1], nb.status[b]).0)
 }
 
-/// PMB force density on node i under a uniform softening law, and the bonds broken.
+/// PMB force density on node i under a uniform softening law in dimension D (`nb.dim`), and
+/// the bonds broken.
 ///
 /// # Safety
-/// `simd::available()` must be true and every neighbour index below `current.len() / 3`;
+/// `simd::available()` must be true and every neighbour index below `current.len() / D`;
 /// `nb.history` holds one word per bond of the family.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub unsafe fn pmb_force_softening(
+pub unsafe fn pmb_force_softening<const D: usize>(
     nb: &mut NodeBonds,
     law: &PmbLaw,
     w: &UniformWeights,
     soft: &UniformSoftening,
 ) -> ([f64; 3], u64) {
+    debug_assert_eq!(nb.dim, D);
     let yi = own_position(nb);
     let (one, zero) = (_mm256_set1_pd(1.0), _mm256_setzero_pd());
     let (s1, sc) = (_mm256_set1_pd(soft.s1), _mm256_set1_pd(soft.sc));
@@ -74,7 +76,7 @@ pub unsafe fn pmb_force_softening(
     let mut broke = 0;
     let mut b = 0;
     while b + 4 <= nb.neighbors.len() {
-        let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+        let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi);
         prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
         let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
         let live = intact(nb.status, b);
@@ -123,19 +125,10 @@ pub unsafe fn pmb_force_softening(
         b += 4;
     }
     let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
-    let i = nb.i;
-    let yi = [
-        nb.current[3 * i],
-        nb.current[3 * i + 1],
-        nb.current[3 * i + 2],
-    ];
+    let yi = nb.position(nb.i);
     for b in b..nb.neighbors.len() {
-        let j = nb.neighbors[b] as usize;
-        let d = [
-            nb.current[3 * j] - yi[0],
-            nb.current[3 * j + 1] - yi[1],
-            nb.current[3 * j + 2] - yi[2],
-        ];
+        let y = nb.position(nb.neighbors[b] as usize);
+        let d = [y[0] - yi[0], y[1] - yi[1], y[2] - yi[2]];
         let len = length(&d);
         if let Some(mu) = soften_one(nb, soft, b, len, &mut broke) {
             // As in the lanes: c ½(φ μ + φ μ) (|y| − |ξ|)/(|ξ||y|) V (seed 001, Eq. 4).

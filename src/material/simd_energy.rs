@@ -14,7 +14,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::simd::avx::{
-    bond_vectors, intact, lps_state, omega, phi, pmb_per_length, prefetch, sum,
+    bond_vectors, bond_vectors_2d, intact, lps_state, omega, phi, pmb_per_length, prefetch, sum,
 };
 use super::simd::{LpsLaw, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
@@ -180,23 +180,6 @@ pub unsafe fn lps_force_work(
         let _ = (nb, law, w, energy, theta, inv_m);
         unreachable!("simd::available() is false off x86-64")
     }
-}
-
-/// Deformed bond vectors (x, y, and z = 0) and lengths of bonds b..b+4 in 2D, as
-/// `simd::avx::bond_vectors` in 3D (the generic loop's |y| = sqrt(x² + y²)).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn bond_vectors_2d(nb: &NodeBonds, b: usize, yi: [__m256d; 3]) -> [__m256d; 4] {
-    let base = nb.current.as_ptr();
-    let row = |lane: usize| _mm_loadu_pd(base.add(2 * nb.neighbors[b + lane] as usize));
-    // [x0, y0, x2, y2] and [x1, y1, x3, y3].
-    let even = _mm256_set_m128d(row(2), row(0));
-    let odd = _mm256_set_m128d(row(3), row(1));
-    let dx = _mm256_sub_pd(_mm256_unpacklo_pd(even, odd), yi[0]);
-    let dy = _mm256_sub_pd(_mm256_unpackhi_pd(even, odd), yi[1]);
-    let len = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)));
-    [dx, dy, _mm256_setzero_pd(), len]
 }
 
 /// The force pass of one node under the law in dimension D: for every intact bond of non-zero

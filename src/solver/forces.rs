@@ -201,6 +201,27 @@ fn split_at_ends<'a, T>(mut data: &'a mut [T], ends: &[usize], scale: usize) -> 
     out
 }
 
+/// One node chunk's share of the bond and node arrays: its nodes, their bonds' status bytes and
+/// history words, and one per-node slot each (the pre-pass's point states or the forces).
+type ChunkItem<'a, P> = (Range<usize>, &'a mut [u8], &'a mut [f64], &'a mut [P]);
+
+/// Cuts the bond arrays (`hw` history words per bond) and a per-node array at the chunks'
+/// ends.
+fn chunk_items<'a, P>(
+    chunks: &[Range<usize>],
+    bond_ends: &[usize],
+    hw: usize,
+    (status, history, per_node): (&'a mut [u8], &'a mut [f64], &'a mut [P]),
+) -> Vec<ChunkItem<'a, P>> {
+    let node_ends: Vec<usize> = chunks.iter().map(|c| c.end).collect();
+    (chunks.iter().cloned())
+        .zip(split_at_ends(status, bond_ends, 1))
+        .zip(split_at_ends(history, bond_ends, hw))
+        .zip(split_at_ends(per_node, &node_ends, 1))
+        .map(|(((nodes, status), history), per_node)| (nodes, status, history, per_node))
+        .collect()
+}
+
 /// Runs `job` on every item in parallel and returns its results in item order. The job is a
 /// trait object (one indirect call per node chunk) so that rayon's machinery is compiled once
 /// per item type instead of once per model, weight rule and damage law: `compute_with` has
@@ -390,12 +411,12 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let mut add = |counts: Vec<u64>| {
             per_chunk.iter_mut().zip(counts).for_each(|(a, c)| *a += c);
         };
-        // The AVX2 kernels, where the model has them: uniform grid, in 3D one critical stretch,
-        // one softening law or one critical energy (with a linear bond's closed form, a
-        // central model's two-word work record, or in 3D a non-central model's four-word
-        // one), in 2D one critical energy,
-        // x86-64 with AVX2, and neighbour indices known to be in bounds (the kernels' gathers
-        // rely on it).
+        // The AVX2 kernels, where the model has them: uniform grid, one critical stretch (PMB
+        // in 2D and 3D, the others in 3D), one softening law (PMB), or one critical energy
+        // (with a linear bond's closed form, a central model's two-word work record, or in 3D
+        // a non-central model's four-word one); x86-64 with AVX2, and neighbour indices known
+        // to be in bounds (the kernels' gathers rely on it). A model without the kernel for
+        // the case returns `None` and the generic loop runs.
         let s0 = damage.uniform_critical_stretch();
         let softening = damage.uniform_softening().filter(|_| hw == 1);
         let work = damage
@@ -405,7 +426,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 BondForce::Central => hw == 2,
                 BondForce::Vector => D == 3 && hw == 4,
             });
-        let vector = if ((D == 3 && (s0.is_some() || softening.is_some())) || work.is_some())
+        let vector = if (s0.is_some() || softening.is_some() || work.is_some())
             && self.vector_kernels
             && self.neighbors_in_bounds
             && simd::available()
@@ -428,14 +449,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 state.current.len() * D,
             )
         };
-        let node_ends: Vec<usize> = self.chunks.iter().map(|c| c.end).collect();
-        let bond_ends: Vec<usize> = node_ends.iter().map(|&e| bonds.offsets[e]).collect();
+        let bond_ends: Vec<usize> = self.chunks.iter().map(|c| bonds.offsets[c.end]).collect();
 
         if M::NEEDS_PREPASS {
             let (material, chunks) = (&self.material, &self.chunks);
-            let status_chunks = split_at_ends(&mut state.status, &bond_ends, 1);
-            let history_chunks = split_at_ends(&mut state.history, &bond_ends, hw);
-            let point_chunks = split_at_ends(&mut self.points, &node_ends, 1);
             let sweep = Sweep {
                 current: &state.current,
                 positions: &body.positions,
@@ -444,15 +461,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 damage,
                 bonds,
             };
-            let items: Vec<_> = (chunks.iter().cloned())
-                .zip(status_chunks)
-                .zip(history_chunks)
-                .zip(point_chunks)
-                .collect();
-            add(map_chunks(items, &|(
-                ((nodes, status), history),
-                points,
-            )| {
+            let arrays = (
+                &mut state.status[..],
+                &mut state.history[..],
+                &mut self.points[..],
+            );
+            let items = chunk_items(chunks, &bond_ends, hw, arrays);
+            add(map_chunks(items, &|(nodes, status, history, points)| {
                 let base = bonds.offsets[nodes.start];
                 let mut broke = 0u64;
                 for (k, i) in nodes.clone().enumerate() {
@@ -489,9 +504,6 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             }));
         }
 
-        let status_chunks = split_at_ends(&mut state.status, &bond_ends, 1);
-        let history_chunks = split_at_ends(&mut state.history, &bond_ends, hw);
-        let force_chunks = split_at_ends(&mut state.force, &node_ends, 1);
         let (material, points) = (&self.material, &self.points);
         let previous = &state.previous;
         // SAFETY: as for `flat` (empty unless a non-central model records work).
@@ -508,15 +520,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         };
         // A two-pass model decided stretch-based failure in its pre-pass.
         let decide = !M::NEEDS_PREPASS;
-        let items: Vec<_> = (self.chunks.iter().cloned())
-            .zip(status_chunks)
-            .zip(history_chunks)
-            .zip(force_chunks)
-            .collect();
-        add(map_chunks(items, &|(
-            ((nodes, status), history),
-            forces,
-        )| {
+        let arrays = (
+            &mut state.status[..],
+            &mut state.history[..],
+            &mut state.force[..],
+        );
+        let items = chunk_items(&self.chunks, &bond_ends, hw, arrays);
+        add(map_chunks(items, &|(nodes, status, history, forces)| {
             let base = bonds.offsets[nodes.start];
             let mut broke = 0u64;
             for (k, i) in nodes.clone().enumerate() {

@@ -307,7 +307,20 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
 
 #[test]
 fn softening_kernel_matches_the_generic_loop() {
-    let dim = Dimensionality::ThreeD;
+    softening_cases::<3>(Dimensionality::ThreeD);
+}
+
+#[test]
+fn softening_kernel_matches_the_generic_loop_in_2d() {
+    softening_cases::<2>(Dimensionality::PlaneStress);
+}
+
+/// PMB (constant and conical) under bilinear and trilinear softening, both partial-volume
+/// rules, in dimension D.
+fn softening_cases<const D: usize>(dim: Dimensionality)
+where
+    peridyn::material::Pmb: Material<D>,
+{
     // The stretch field of `run` (2e-3 ± 1e-3) softens bonds past s1 and breaks some.
     let bilinear = SofteningParameters::bilinear(1.2e-3, 2.6e-3).unwrap();
     let trilinear = SofteningParameters::trilinear(bilinear, 0.25, 1.5).unwrap();
@@ -320,14 +333,36 @@ fn softening_kernel_matches_the_generic_loop() {
             ),
         ] {
             for profile in [MicromodulusProfile::Constant, MicromodulusProfile::Conical] {
-                compare_with(
-                    &format!("pmb {label} {profile:?}"),
+                compare_loaded::<D, _>(
+                    &format!("pmb {label} {profile:?} {D}D"),
                     pmb(dim, 70e9, 3e-3, profile),
                     law.clone().into(),
                     rule,
+                    TWICE,
                 );
             }
         }
+    }
+}
+
+/// In 2D (plane stress) PMB under a critical stretch runs its kernel; LPS and correspondence
+/// have none there and must fall back to the generic loop through the same gate.
+#[test]
+fn vector_kernels_match_the_generic_loop_in_2d() {
+    use peridyn::material::correspondence::ZeroEnergyControl;
+    let dim = Dimensionality::PlaneStress;
+    for rule in [PartialVolume::Hhb, PartialVolume::None] {
+        let stretch = || CriticalStretch::new(1e-3).into();
+        for (name, profile) in [
+            ("pmb 2D", MicromodulusProfile::Constant),
+            ("pmb conical 2D", MicromodulusProfile::Conical),
+        ] {
+            compare_loaded::<2, _>(name, pmb(dim, 70e9, 3e-3, profile), stretch(), rule, TWICE);
+        }
+        compare_loaded::<2, _>("lps 2D", lps(dim, 70e9, 0.3, 3e-3), stretch(), rule, TWICE);
+        let control = ZeroEnergyControl::Wan { coefficient: 1.0 };
+        let m = correspondence(dim, 70e9, 0.25, 3e-3, control);
+        compare_loaded::<2, _>("correspondence 2D", m, stretch(), rule, TWICE);
     }
 }
 
