@@ -38,8 +38,8 @@ pub fn fma_available() -> bool {
 /// The family of node i as a kernel sees it.
 pub struct NodeBonds<'a> {
     pub i: usize,
-    /// Dimension: 3, or 2 for the kernels that implement it (PMB under a critical stretch,
-    /// `simd_energy`; see `planar`).
+    /// Dimension: 3, or 2 for the kernels that implement it (PMB's under a critical stretch,
+    /// softening or critical energy, LPS's under critical energy; see `planar`).
     pub dim: usize,
     /// Current positions, flat x, y, z (x, y in 2D).
     pub current: &'a [f64],
