@@ -44,7 +44,8 @@ enum Command {
     /// Draw the PNG plots of a finished (or interrupted) run's history.csv into RUN_DIR/plots:
     /// energies, load–displacement per loaded node set, openings, broken bonds, time step.
     Plot { run_dir: PathBuf },
-    /// Validate a deck and print the model it builds (nodes, bonds, δ/Δx, constants, dt, memory).
+    /// Validate a deck and print the model it builds (nodes, bonds, δ/Δx, constants, dt, memory);
+    /// given a study file, validate it and every run's deck (as `study --dry-run`).
     Check {
         deck: PathBuf,
         #[arg(long)]
@@ -58,7 +59,6 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
-    /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
     /// Run a parameter study of a deck (study file: the deck, the numbers to vary, Morris
     /// screening or a sweep, the outputs to read): every run in DIR/runs/, runs.csv, and for
     /// Morris morris.csv and a μ*–σ plot per output. Started again, it continues where it
@@ -78,6 +78,7 @@ enum Command {
         #[arg(long)]
         dry_run: bool,
     },
+    /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
     Bench {
         /// Target number of directed bonds per case.
         #[arg(long, default_value_t = 4_000_000)]
@@ -99,6 +100,25 @@ fn deck_name(deck: &std::path::Path) -> String {
     deck.file_stem()
         .map(|s| s.to_string_lossy().to_string())
         .unwrap_or_else(|| "run".into())
+}
+
+/// Validates a study file and every run's deck, and prints the runs (`study --dry-run`,
+/// `check STUDY`).
+fn check_study(study: &std::path::Path, threads: Option<usize>) -> Result<(), String> {
+    let ls = LoadedStudy::from_file(study).map_err(|e| e.to_string())?;
+    let runs = plan_study(&ls, threads).map_err(|e| e.to_string())?;
+    println!(
+        "{}: study is valid, {} runs; every run's deck is valid and builds",
+        study.display(),
+        runs.len()
+    );
+    let keys: Vec<&str> = ls.study.factors.iter().map(|f| f.key.as_str()).collect();
+    println!("run,{}", keys.join(","));
+    for (k, r) in runs.iter().enumerate() {
+        let v: Vec<String> = r.values.iter().map(|v| v.to_string()).collect();
+        println!("{k},{}", v.join(","));
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
@@ -145,6 +165,9 @@ fn main() -> ExitCode {
             Ok(())
         })(),
         Command::Check { deck, threads } => (|| {
+            if std::fs::read_to_string(&deck).is_ok_and(|src| LoadedStudy::is_study(&src)) {
+                return check_study(&deck, threads);
+            }
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
             let report = check(&ld, threads).map_err(|e| e.to_string())?;
             println!("{}: deck is valid\n{report}", deck.display());
@@ -168,22 +191,10 @@ grid written to {}",
             quiet,
             dry_run,
         } => (|| {
-            let ls = LoadedStudy::from_file(&study).map_err(|e| e.to_string())?;
             if dry_run {
-                let runs = plan_study(&ls, threads).map_err(|e| e.to_string())?;
-                println!(
-                    "{}: study is valid, {} runs; every run's deck is valid and builds",
-                    study.display(),
-                    runs.len()
-                );
-                let keys: Vec<&str> = ls.study.factors.iter().map(|f| f.key.as_str()).collect();
-                println!("run,{}", keys.join(","));
-                for (k, r) in runs.iter().enumerate() {
-                    let v: Vec<String> = r.values.iter().map(|v| v.to_string()).collect();
-                    println!("{k},{}", v.join(","));
-                }
-                return Ok(());
+                return check_study(&study, threads);
             }
+            let ls = LoadedStudy::from_file(&study).map_err(|e| e.to_string())?;
             let out_dir =
                 output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&study)));
             let report = run_study(

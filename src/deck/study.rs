@@ -151,6 +151,13 @@ pub struct LoadedStudy {
 }
 
 impl LoadedStudy {
+    /// Whether the TOML text is a study file rather than a deck: a deck has no `deck` key, a
+    /// study names its base deck there (`peridyn check` takes either).
+    pub fn is_study(src: &str) -> bool {
+        src.parse::<toml::Table>()
+            .is_ok_and(|t| t.get("deck").is_some_and(|v| v.is_str()))
+    }
+
     /// Reads, parses and validates a study file and its base deck.
     pub fn from_file(path: &Path) -> Result<Self, DeckError> {
         let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io {

@@ -248,3 +248,27 @@ fn bad_study_files_are_refused_at_their_key() {
         "{err}"
     );
 }
+
+/// `peridyn check` takes a study file as well as a deck: the shipped study validates with
+/// every run's deck, and a deck is still checked as a deck.
+#[test]
+fn check_takes_a_study_file_or_a_deck() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let exe = env!("CARGO_BIN_EXE_peridyn");
+    let check = |file: &str| {
+        let out = std::process::Command::new(exe)
+            .arg("check")
+            .arg(root.join(file))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "check {file}: {out:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let study = check("examples/seed004_morris_study.toml");
+    assert!(study.contains("study is valid, 14 runs"), "{study}");
+    assert!(LoadedStudy::is_study(
+        &std::fs::read_to_string(root.join("examples/seed004_morris_study.toml")).unwrap()
+    ));
+    let deck = check("examples/quickstart.toml");
+    assert!(deck.contains("deck is valid"), "{deck}");
+}
