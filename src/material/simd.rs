@@ -112,6 +112,25 @@ impl<'a> NodeBonds<'a> {
         self
     }
 
+    /// The same family in dimension `dim` (3, or 2: `planar`) under the engine's uniform law:
+    /// a softening law or a critical energy with the family's history words, if either.
+    pub fn under(
+        mut self,
+        dim: usize,
+        softening: Option<UniformSoftening>,
+        work: Option<UniformCriticalEnergy>,
+        history: &'a mut [f64],
+    ) -> Self {
+        if dim == 2 {
+            self = self.planar();
+        }
+        match (softening, work) {
+            (Some(law), _) => self.with_softening(law, history),
+            (None, Some(law)) => self.with_work(law, history),
+            (None, None) => self,
+        }
+    }
+
     /// Node k's current position, z = 0 in 2D (so that a 3D length, (x² + y²) + z², is the
     /// 2D one to the bit).
     #[inline(always)]

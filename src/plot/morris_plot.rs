@@ -7,7 +7,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::curve::{tick_format, COLOURS};
+use super::curve::{draw_legend, tick_format, COLOURS};
 use super::damage_map::{save_png_atomic, PlotError};
 use super::font;
 
@@ -83,14 +83,7 @@ pub fn write_morris_png(
                 );
             chart.draw_series(std::iter::once(number)).map_err(err)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((font::FAMILY, 14))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        draw_legend(&mut chart).map_err(err)?;
         root.present().map_err(err)?;
     }
     save_png_atomic(path, &rgb, SIZE.0, SIZE.1)

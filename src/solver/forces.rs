@@ -475,16 +475,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let status = &mut status[r.start - base..r.end - base];
                     let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
                     if let Some(w) = &vector {
-                        let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0));
-                        if D == 2 {
-                            nb = nb.planar();
-                        }
-                        if let Some(law) = softening {
-                            nb = nb.with_softening(law, history);
-                        } else if let Some(law) = work {
-                            // The pre-pass reads only the status under this law.
-                            nb = nb.with_work(law, history);
-                        }
+                        // Under a critical energy the pre-pass reads only the status.
+                        let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0))
+                            .under(D, softening, work, history);
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
                         if let Some(nb_broken) =
                             unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
@@ -534,16 +527,12 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 let status = &mut status[r.start - base..r.end - base];
                 let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
                 if let Some(w) = &vector {
-                    let mut nb =
-                        NodeBonds::of(i, flat, bonds, status, no_fail, decide.then_some(s0));
-                    if D == 2 {
-                        nb = nb.planar();
-                    }
-                    if let Some(law) = softening {
-                        nb = nb.with_softening(law, history);
-                    } else if let Some(law) = work {
-                        nb = nb.with_work(law, history).with_previous(previous_flat);
-                    }
+                    // The previous positions are empty unless a non-central model records
+                    // work.
+                    let s0 = decide.then_some(s0);
+                    let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, s0)
+                        .under(D, softening, work, history)
+                        .with_previous(previous_flat);
                     // SAFETY: AVX2 is available and neighbour indices are in bounds.
                     if let Some((f, nb_broken)) =
                         unsafe { material.vector_force(&mut nb, w, points) }
