@@ -40,13 +40,14 @@ pub struct BenchResult {
 /// block compressed so every node touches its nearest neighbours, else a crack across the
 /// block whose faces are pressed together, `arrange`; "-fragments": the dense arrangement
 /// without contact, the baseline that isolates the contact pass's own cost).
-pub const CASES: [&str; 21] = [
+pub const CASES: [&str; 22] = [
     "pmb-2d",
     "lps-2d",
     "correspondence-2d",
     "pmb-bilinear-2d",
     "pmb-energy-2d",
     "lps-energy-2d",
+    "correspondence-energy-2d",
     "pmb-dh-2d",
     "mixed-2d",
     "pmb-3d",

@@ -101,18 +101,25 @@ pub struct CorrespondencePoint<const D: usize> {
     pad: [u64; 3],
 }
 
-// The force kernels' view of the record (3D).
+// The force kernels' view of the record, in 2D and 3D.
 const _: () = {
-    use simd_correspondence::{RECORD_C1, RECORD_READ, RECORD_X, RECORD_Y};
+    use simd_correspondence::{record_c1, record_read, record_x, record_y};
     use std::mem::{offset_of, size_of};
-    type Record = CorrespondencePoint<3>;
-    assert!(offset_of!(Record, b) == 0);
-    assert!(offset_of!(Record, c1) == 8 * RECORD_C1);
-    assert!(offset_of!(Record, y) == 8 * RECORD_Y && RECORD_Y == RECORD_C1 + 9);
-    assert!(offset_of!(Record, x) == 8 * RECORD_X && RECORD_X == RECORD_Y + 3);
-    assert!(size_of::<Record>() >= 8 * RECORD_READ);
+    macro_rules! check_record {
+        ($d:literal) => {{
+            type Record = CorrespondencePoint<$d>;
+            assert!(offset_of!(Record, b) == 0);
+            assert!(offset_of!(Record, c1) == 8 * record_c1($d));
+            assert!(offset_of!(Record, y) == 8 * record_y($d));
+            assert!(offset_of!(Record, x) == 8 * record_x($d));
+            assert!(size_of::<Record>() >= 8 * record_read($d));
+        }};
+    }
+    check_record!(2);
+    check_record!(3);
     // No implicit padding (see `pad`): the record is read as a slice of f64.
-    assert!(size_of::<Record>() == 8 * 56 && size_of::<CorrespondencePoint<2>>() == 8 * 32);
+    assert!(size_of::<CorrespondencePoint<3>>() == 8 * 56);
+    assert!(size_of::<CorrespondencePoint<2>>() == 8 * 32);
 };
 
 impl<const D: usize> Default for CorrespondencePoint<D> {
@@ -214,8 +221,8 @@ impl Correspondence {
         (h + h.transpose() + h.transpose() * h) * 0.5
     }
 
-    /// The vector kernels' view of the model: 3D, one horizon, ω = 1 or δ/|ξ|, after `setup`,
-    /// on a CPU with AVX2 and FMA.
+    /// The vector kernels' view of the model: one horizon, ω = 1 or δ/|ξ|, after `setup`, on a
+    /// CPU with AVX2 and FMA.
     fn kernel_law<const D: usize>(&self, nodes: usize) -> Option<CorrespondenceLaw<'_>> {
         let PerNode::Uniform(horizon) = self.horizons else {
             return None;
@@ -225,7 +232,7 @@ impl Correspondence {
             Influence::Inverse => true,
             Influence::Gaussian => return None,
         };
-        (D == 3 && self.reference.len() == 3 * nodes && super::simd::fma_available()).then_some(
+        (self.reference.len() == D * nodes && super::simd::fma_available()).then_some(
             CorrespondenceLaw {
                 reference: &self.reference,
                 horizon,
@@ -477,7 +484,7 @@ impl<const D: usize> Material<D> for Correspondence {
         point: &mut Self::Point,
     ) -> Option<u64> {
         // Under a critical-energy law (`nb.work`) the pre-pass reads only the bond status.
-        let law = self.kernel_law::<D>(nb.current.len() / 3)?;
+        let law = self.kernel_law::<D>(nb.current.len() / D)?;
         let family = nb.neighbors.len();
         // A family too large for `kept` sums K with N in one pass, as it cannot reuse it.
         let large = family > simd_correspondence::KEPT_BITS;
@@ -487,8 +494,8 @@ impl<const D: usize> Material<D> for Correspondence {
         let (i, family) = (nb.i, family as u64);
         let vector = |v: &[f64]| SVector::<f64, D>::from_fn(|a, _| v[a]);
         // The positions the force kernels read from this record, a detached node's too.
-        point.y = vector(&nb.current[3 * i..]);
-        point.x = vector(&self.reference[3 * i..]);
+        point.y = vector(&nb.current[D * i..]);
+        point.x = vector(&self.reference[D * i..]);
         // A detached node: no force state, nothing kept to reuse (its C1 is zero), its
         // positions still read by its neighbours.
         let detach = |p: &mut CorrespondencePoint<D>| {
@@ -512,7 +519,7 @@ impl<const D: usize> Material<D> for Correspondence {
                 nb.s0 = s0;
                 (&again.k, &again.sum_xi)
             };
-            let Some(k_inv) = Self::shape_inverse(&SMatrix::from_column_slice(k)) else {
+            let Some(k_inv) = Self::shape_inverse(&SMatrix::from_column_slice(&k[..D * D])) else {
                 detach(point);
                 return Some(sums.broke);
             };
@@ -525,7 +532,7 @@ impl<const D: usize> Material<D> for Correspondence {
         match self.deformed(
             &point.shape_inverse,
             &point.c1,
-            &SMatrix::from_column_slice(&sums.n),
+            &SMatrix::from_column_slice(&sums.n[..D * D]),
         ) {
             Some((b, h)) => (point.b, point.h) = (b, h),
             None => detach(point),
@@ -546,7 +553,7 @@ impl<const D: usize> Material<D> for Correspondence {
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
         // SAFETY: `CorrespondencePoint` is `repr(C)` of f64 and u64 fields only (no padding),
-        // laid out as `simd_correspondence::RECORD_*` (checked below at compile time).
+        // laid out as `simd_correspondence::record_*` say (checked at compile time).
         let flat = unsafe {
             std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
         };
@@ -567,7 +574,10 @@ impl<const D: usize> Material<D> for Correspondence {
             unsafe { simd_correspondence::correspondence_force(nb, &law, w, flat, stride) };
         let pi = &points[nb.i];
         let own = self.linear_half(pi, &pi.shape_xi, &Vector::<D>::from_fn(|a, _| sum_eta[a]));
-        Some(([other[0] + own[0], other[1] + own[1], other[2] + own[2]], 0))
+        Some((
+            std::array::from_fn(|a| if a < D { other[a] + own[a] } else { 0.0 }),
+            0,
+        ))
     }
 
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S

@@ -246,8 +246,8 @@ impl<const D: usize> Material<D> for Lps {
         w: &UniformWeights,
         point: &mut LpsPoint,
     ) -> Option<u64> {
-        if nb.softening.is_some() || nb.dim != 3 {
-            return None; // no LPS kernel for softening, nor a 2D pre-pass kernel
+        if nb.softening.is_some() {
+            return None; // no LPS kernel for softening
         }
         let law = self.law()?;
         // SAFETY: forwarded from the caller.
@@ -274,9 +274,6 @@ impl<const D: usize> Material<D> for Lps {
             return Some(unsafe {
                 simd_energy::lps_force_work(nb, &law, w, &energy, theta, &self.inv_m)
             });
-        }
-        if nb.dim != 3 {
-            return None; // the critical-stretch kernel is 3D only
         }
         // SAFETY: forwarded from the caller.
         Some((

@@ -257,14 +257,14 @@ pub trait Material<const D: usize>: Sync + Send {
     /// Mass density of node i (kg/m³).
     fn density(&self, i: usize) -> f64;
 
-    /// Optional AVX2 pre-pass of one node (3D, uniform grid, one critical stretch, or the
-    /// uniform law `nb` carries): writes its point state over `point`, the node's state from
+    /// Optional AVX2 pre-pass of one node (2D or 3D, `nb.dim`; uniform grid, one critical
+    /// stretch, or the uniform law `nb` carries): writes its point state over `point`, the node's state from
     /// the last evaluation (the default before the first; a model may reuse parts of it), and
     /// returns the bonds it broke; or `None`, leaving `point` as it was, to use the generic
     /// loop.
     ///
     /// # Safety
-    /// `simd::available()` and every neighbour index below `nb.current.len() / 3`.
+    /// `simd::available()` and every neighbour index below `nb.current.len() / nb.dim`.
     unsafe fn vector_prepass(
         &self,
         _nb: &mut NodeBonds,
@@ -274,9 +274,9 @@ pub trait Material<const D: usize>: Sync + Send {
         None
     }
 
-    /// Optional AVX2 force pass of one node (3D, uniform grid, one critical stretch, or the
-    /// uniform law `nb` carries: softening, critical energy): its force density and the bonds
-    /// it broke, or `None` to use the generic loop.
+    /// Optional AVX2 force pass of one node (2D or 3D, `nb.dim`; uniform grid, one critical
+    /// stretch, or the uniform law `nb` carries: softening, critical energy): its force
+    /// density (z = 0 in 2D) and the bonds it broke, or `None` to use the generic loop.
     ///
     /// # Safety
     /// As for `vector_prepass`.

@@ -1,5 +1,5 @@
-//! Bond loops on four bonds at a time with AVX2 (x86-64, 3D, uniform grids), for the models
-//! that provide them (PMB force; LPS pre-pass and force). Same laws, failure rule and
+//! Bond loops on four bonds at a time with AVX2 (x86-64, 2D and 3D, uniform grids), for the
+//! models that provide them (PMB force; LPS pre-pass and force). Same laws, failure rule and
 //! partial-volume factor as the generic loops; only the order in which a node's bond terms are
 //! summed differs (four lanes, then the tail), and it is fixed, so results stay bitwise
 //! identical for any thread count. `tests/suite/kernels.rs` checks them against the generic loop.
@@ -38,8 +38,7 @@ pub fn fma_available() -> bool {
 /// The family of node i as a kernel sees it.
 pub struct NodeBonds<'a> {
     pub i: usize,
-    /// Dimension: 3, or 2 for the kernels that implement it (PMB's under a critical stretch,
-    /// softening or critical energy, LPS's under critical energy; see `planar`).
+    /// Dimension: 3, or 2 (`planar`; every kernel takes x, y lanes there).
     pub dim: usize,
     /// Current positions, flat x, y, z (x, y in 2D).
     pub current: &'a [f64],
@@ -283,7 +282,11 @@ pub unsafe fn lps_dilatation_sum(
 ) -> (f64, u64) {
     #[cfg(target_arch = "x86_64")]
     {
-        avx::lps_dilatation_sum(nb, law, w)
+        if nb.dim == 2 {
+            avx::lps_dilatation_sum::<2>(nb, law, w)
+        } else {
+            avx::lps_dilatation_sum::<3>(nb, law, w)
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     unreachable!("available() is false off x86-64")
@@ -302,7 +305,11 @@ pub unsafe fn lps_force(
 ) -> [f64; 3] {
     #[cfg(target_arch = "x86_64")]
     {
-        avx::lps_force(nb, law, w, theta, inv_m)
+        if nb.dim == 2 {
+            avx::lps_force::<2>(nb, law, w, theta, inv_m)
+        } else {
+            avx::lps_force::<3>(nb, law, w, theta, inv_m)
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     unreachable!("available() is false off x86-64")
@@ -607,19 +614,21 @@ pub(crate) mod avx {
         }
     }
 
+    /// LPS pre-pass in dimension D (`nb.dim`; z = 0 in 2D).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn lps_dilatation_sum(
+    pub(super) unsafe fn lps_dilatation_sum<const D: usize>(
         nb: &mut NodeBonds,
         law: &LpsLaw,
         w: &UniformWeights,
     ) -> (f64, u64) {
+        debug_assert_eq!(nb.dim, D);
         let yi = own_position(nb);
         let volume = _mm256_set1_pd(w.node.volume);
         let mut acc = _mm256_setzero_pd();
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
-            let [_, _, _, len] = bond_vectors(nb, b, yi);
+            let [_, _, _, len] = bond_vectors_in::<D>(nb, b, yi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = fail_and_keep(nb, b, len, l, &mut broke);
@@ -638,14 +647,16 @@ pub(crate) mod avx {
         (s, broke)
     }
 
+    /// LPS force pass under one critical stretch in dimension D (`nb.dim`; z = 0 in 2D).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn lps_force(
+    pub(super) unsafe fn lps_force<const D: usize>(
         nb: &mut NodeBonds,
         law: &LpsLaw,
         w: &UniformWeights,
         theta: &[f64],
         inv_m: &[f64],
     ) -> [f64; 3] {
+        debug_assert_eq!(nb.dim, D);
         let i = nb.i;
         let yi = own_position(nb);
         let (theta_i, inv_m_i) = (_mm256_set1_pd(theta[i]), _mm256_set1_pd(inv_m[i]));
@@ -654,7 +665,7 @@ pub(crate) mod avx {
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
-            let [dx, dy, dz, len] = bond_vectors(nb, b, yi);
+            let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = fail_and_keep(nb, b, len, l, &mut broke);

@@ -1,5 +1,5 @@
-//! AVX2 + FMA bond loops of the correspondence model (3D, uniform grid, one horizon), four
-//! bonds at a time: the pre-pass sums N = Σ ω η⊗ξ w and, when the caller cannot reuse it
+//! AVX2 + FMA bond loops of the correspondence model (2D and 3D, uniform grid, one horizon),
+//! four bonds at a time: the pre-pass sums N = Σ ω η⊗ξ w and, when the caller cannot reuse it
 //! (`Sums::kept`), K = Σ ω ξ⊗ξ w (seed 004, Eqs. 6–7);
 //! the force pass under one critical stretch sums the other halves ω φ V (B_j ξ + C1_j η) and
 //! the own-half sums Σ s ξ, Σ s η (see `Correspondence` and `Material::FACTORED_OWN_HALF`);
@@ -18,9 +18,11 @@
 //! both AVX2 and FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the
 //! generic loop.
 //!
-//! Loads: a neighbour's (x, y, z), B and C1 are read as 128-bit pairs, two bonds per 256-bit
+//! Loads: a neighbour's position, B and C1 are read as 128-bit pairs, two bonds per 256-bit
 //! register, and interleaved with in-lane unpacks (no lane-crossing shuffle, never a byte past
-//! a node's record).
+//! a node's record). The kernels are generic over the dimension D (`NodeBonds::dim`): vectors
+//! are D lanes, matrices D×D column-major; in 2D the sums returned and the scalar tails pad
+//! the third component with zero.
 
 use super::simd::NodeBonds;
 use crate::bonds::partial_volume::UniformWeights;
@@ -30,7 +32,7 @@ use crate::damage::critical_energy::UniformCriticalEnergy;
 /// What the kernels need of the model.
 #[derive(Debug, Clone, Copy)]
 pub struct CorrespondenceLaw<'a> {
-    /// Reference positions, flat x, y, z.
+    /// Reference positions, flat (x, y, z in 3D, x, y in 2D).
     pub reference: &'a [f64],
     /// The (uniform) horizon δ.
     pub horizon: f64,
@@ -50,37 +52,48 @@ impl CorrespondenceLaw<'_> {
         }
     }
 
-    /// Reference bond vector ξ = x_j − x_i.
+    /// Reference bond vector ξ = x_j − x_i in dimension D, z = 0 in 2D.
     #[inline(always)]
-    fn xi(&self, i: usize, j: usize) -> [f64; 3] {
+    fn xi<const D: usize>(&self, i: usize, j: usize) -> [f64; 3] {
         let r = self.reference;
-        [
-            r[3 * j] - r[3 * i],
-            r[3 * j + 1] - r[3 * i + 1],
-            r[3 * j + 2] - r[3 * i + 2],
-        ]
+        std::array::from_fn(|a| {
+            if a < D {
+                r[D * j + a] - r[D * i + a]
+            } else {
+                0.0
+            }
+        })
     }
 }
 
-/// Where the force kernels find a node's entries in its point record (3D, in f64 words; the
-/// layout of `CorrespondencePoint`, checked against these at compile time): B column-major
-/// from 0, C1 from `RECORD_C1`, the current position from `RECORD_Y`, the reference position
-/// from `RECORD_X`. The kernels read up to word `RECORD_READ` (exclusive) of a record.
-pub const RECORD_C1: usize = 9;
-pub const RECORD_Y: usize = 18;
-pub const RECORD_X: usize = 21;
-pub const RECORD_READ: usize = 24;
+/// Where the force kernels find a node's entries in its point record of dimension `d` (in f64
+/// words; the layout of `CorrespondencePoint`, checked against these at compile time): B
+/// column-major from 0, C1 from `record_c1`, the current position from `record_y`, the
+/// reference position from `record_x`. The kernels read up to word `record_read` (exclusive).
+pub const fn record_c1(d: usize) -> usize {
+    d * d
+}
+pub const fn record_y(d: usize) -> usize {
+    2 * d * d
+}
+pub const fn record_x(d: usize) -> usize {
+    2 * d * d + d
+}
+pub const fn record_read(d: usize) -> usize {
+    2 * d * d + 2 * d
+}
 
 /// Families of up to this many bonds get `Sums::kept`.
 pub const KEPT_BITS: usize = 256;
 
-/// What the pre-pass of a node sums.
+/// What the pre-pass of a node sums; the matrices D×D column-major in their first D² words,
+/// the vector in its first D.
 #[derive(Debug, Clone, Copy)]
 pub struct Sums {
-    /// K = Σ ω ξ⊗ξ w, column-major, and Σ s ξ (s = ω φ V; both zero unless asked for).
+    /// K = Σ ω ξ⊗ξ w and Σ s ξ (s = ω φ V; both zero unless asked for).
     pub k: [f64; 9],
     pub sum_xi: [f64; 3],
-    /// N = Σ ω η⊗ξ w, column-major.
+    /// N = Σ ω η⊗ξ w.
     pub n: [f64; 9],
     /// Bonds broken by this pass.
     pub broke: u64,
@@ -89,12 +102,12 @@ pub struct Sums {
     pub kept: Option<[u64; 4]>,
 }
 
-/// Pre-pass of node i: N (and K and Σ s ξ if `with_k`; column-major 3×3) over its
-/// intact bonds, deciding failure like the generic loop, and which bonds carried force.
+/// Pre-pass of node i: N (and K and Σ s ξ if `with_k`) over its intact bonds, deciding
+/// failure like the generic loop, and which bonds carried force.
 ///
 /// # Safety
-/// `simd::fma_available()`; every neighbour index below `nb.current.len() / 3` and
-/// `law.reference.len() / 3`.
+/// `simd::fma_available()`; every neighbour index below `nb.current.len() / nb.dim` and
+/// `law.reference.len() / nb.dim`.
 pub unsafe fn correspondence_sums(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
@@ -103,14 +116,10 @@ pub unsafe fn correspondence_sums(
 ) -> Sums {
     #[cfg(target_arch = "x86_64")]
     {
-        let hhb = w.rule == PartialVolume::Hhb;
-        match (nb.s0.is_some(), with_k) {
-            (true, true) => avx::with_weights!(avx::sums, [true, true], hhb, law, (nb, law, w)),
-            (true, false) => avx::with_weights!(avx::sums, [true, false], hhb, law, (nb, law, w)),
-            (false, true) => avx::with_weights!(avx::sums, [false, true], hhb, law, (nb, law, w)),
-            (false, false) => {
-                avx::with_weights!(avx::sums, [false, false], hhb, law, (nb, law, w))
-            }
+        if nb.dim == 2 {
+            avx::sums_in::<2>(nb, law, w, with_k)
+        } else {
+            avx::sums_in::<3>(nb, law, w, with_k)
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -124,7 +133,7 @@ pub unsafe fn correspondence_sums(
 ///
 /// # Safety
 /// As for `correspondence_sums`; `points.len() >= stride * nodes` and
-/// `stride >= RECORD_READ`.
+/// `stride >= record_read(nb.dim)`.
 pub unsafe fn correspondence_force(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
@@ -134,11 +143,10 @@ pub unsafe fn correspondence_force(
 ) -> ([f64; 3], [f64; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
-        let hhb = w.rule == PartialVolume::Hhb;
-        if law.control {
-            avx::with_weights!(avx::force, [true], hhb, law, (nb, law, w, points, stride))
+        if nb.dim == 2 {
+            avx::force_in::<2>(nb, law, w, points, stride)
         } else {
-            avx::with_weights!(avx::force, [false], hhb, law, (nb, law, w, points, stride))
+            avx::force_in::<3>(nb, law, w, points, stride)
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -164,29 +172,17 @@ pub unsafe fn correspondence_force_work(
     debug_assert_eq!(nb.previous.len(), nb.current.len());
     #[cfg(target_arch = "x86_64")]
     {
-        let hhb = w.rule == PartialVolume::Hhb;
-        if law.control {
-            avx::with_weights!(
-                avx::force_work,
-                [true],
-                hhb,
-                law,
-                (nb, law, w, energy, points, stride)
-            )
+        if nb.dim == 2 {
+            avx::force_work_in::<2>(nb, law, w, energy, points, stride)
         } else {
-            avx::with_weights!(
-                avx::force_work,
-                [false],
-                hhb,
-                law,
-                (nb, law, w, energy, points, stride)
-            )
+            avx::force_work_in::<3>(nb, law, w, energy, points, stride)
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     unreachable!("fma_available() is false off x86-64")
 }
 
+#[cfg(target_arch = "x86_64")]
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::*;
@@ -209,7 +205,70 @@ mod avx {
             }
         };
     }
-    pub(super) use with_weights;
+
+    /// `sums` with its flags: whether it decides failure (`nb.s0`), `with_k`, the weights.
+    #[inline(always)]
+    pub(super) unsafe fn sums_in<const D: usize>(
+        nb: &mut NodeBonds,
+        law: &CorrespondenceLaw,
+        w: &UniformWeights,
+        with_k: bool,
+    ) -> Sums {
+        let hhb = w.rule == PartialVolume::Hhb;
+        match (nb.s0.is_some(), with_k) {
+            (true, true) => with_weights!(sums, [D, true, true], hhb, law, (nb, law, w)),
+            (true, false) => with_weights!(sums, [D, true, false], hhb, law, (nb, law, w)),
+            (false, true) => with_weights!(sums, [D, false, true], hhb, law, (nb, law, w)),
+            (false, false) => with_weights!(sums, [D, false, false], hhb, law, (nb, law, w)),
+        }
+    }
+
+    /// `force` with its flags: zero-energy control, the weights.
+    #[inline(always)]
+    pub(super) unsafe fn force_in<const D: usize>(
+        nb: &mut NodeBonds,
+        law: &CorrespondenceLaw,
+        w: &UniformWeights,
+        points: &[f64],
+        stride: usize,
+    ) -> ([f64; 3], [f64; 3]) {
+        let hhb = w.rule == PartialVolume::Hhb;
+        if law.control {
+            with_weights!(force, [D, true], hhb, law, (nb, law, w, points, stride))
+        } else {
+            with_weights!(force, [D, false], hhb, law, (nb, law, w, points, stride))
+        }
+    }
+
+    /// `force_work` with its flags: zero-energy control, the weights.
+    #[inline(always)]
+    pub(super) unsafe fn force_work_in<const D: usize>(
+        nb: &mut NodeBonds,
+        law: &CorrespondenceLaw,
+        w: &UniformWeights,
+        energy: &UniformCriticalEnergy,
+        points: &[f64],
+        stride: usize,
+    ) -> ([f64; 3], u64) {
+        let hhb = w.rule == PartialVolume::Hhb;
+        if law.control {
+            with_weights!(
+                force_work,
+                [D, true],
+                hhb,
+                law,
+                (nb, law, w, energy, points, stride)
+            )
+        } else {
+            with_weights!(
+                force_work,
+                [D, false],
+                hhb,
+                law,
+                (nb, law, w, energy, points, stride)
+            )
+        }
+    }
 
     /// The neighbours of bonds b..b+4.
     #[inline(always)]
@@ -233,120 +292,154 @@ mod avx {
         (_mm256_unpacklo_pd(even, odd), _mm256_unpackhi_pd(even, odd))
     }
 
+    /// The first D of three registers.
+    #[inline(always)]
+    fn first<const D: usize>(v: [__m256d; 3]) -> [__m256d; D] {
+        std::array::from_fn(|a| v[a])
+    }
+
     /// The neighbours' current and reference positions (y, x) from their records, one lane
-    /// per neighbour, and with zero-energy control C1's entry (2, 2), which shares a 128-bit
-    /// pair with y₀.
+    /// per neighbour, and in 3D with zero-energy control C1's entry (2, 2), which shares a
+    /// 128-bit pair with y₀ (zero otherwise).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn positions<const CONTROL: bool>(
+    unsafe fn positions<const D: usize, const CONTROL: bool>(
         p: &[*const f64; 4],
-    ) -> ([__m256d; 3], [__m256d; 3], __m256d) {
-        if CONTROL {
-            let (c22, y0) = pair(p, RECORD_Y - 1);
-            let (y1, y2) = pair(p, RECORD_Y + 1);
-            let (x0, _) = pair(p, RECORD_X);
-            let (x1, x2) = pair(p, RECORD_X + 1);
-            ([y0, y1, y2], [x0, x1, x2], c22)
+    ) -> ([__m256d; D], [__m256d; D], __m256d) {
+        let (ry, rx) = (record_y(D), record_x(D));
+        let zero = _mm256_setzero_pd();
+        if D == 2 {
+            let (y0, y1) = pair(p, ry);
+            let (x0, x1) = pair(p, rx);
+            (first([y0, y1, zero]), first([x0, x1, zero]), zero)
+        } else if CONTROL {
+            let (c22, y0) = pair(p, ry - 1);
+            let (y1, y2) = pair(p, ry + 1);
+            let (x0, _) = pair(p, rx);
+            let (x1, x2) = pair(p, rx + 1);
+            (first([y0, y1, y2]), first([x0, x1, x2]), c22)
         } else {
-            let (y0, y1) = pair(p, RECORD_Y);
-            let (y2, x0) = pair(p, RECORD_Y + 2);
-            let (x1, x2) = pair(p, RECORD_X + 1);
-            ([y0, y1, y2], [x0, x1, x2], _mm256_setzero_pd())
+            let (y0, y1) = pair(p, ry);
+            let (y2, x0) = pair(p, ry + 2);
+            let (x1, x2) = pair(p, rx + 1);
+            (first([y0, y1, y2]), first([x0, x1, x2]), zero)
         }
+    }
+
+    /// The (row, column) entries of a symmetric D×D matrix's lower triangle, column by column:
+    /// (0,0), (1,0), (2,0), (1,1), (2,1), (2,2) in 3D; (0,0), (1,0), (1,1) in 2D.
+    #[inline(always)]
+    fn lower<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
+        (0..D).flat_map(|c| (c..D).map(move |r| (r, c)))
+    }
+
+    /// The index of entry (r, c) of a symmetric D×D matrix in the order of `lower`: columns
+    /// 0..c hold D, D − 1, … entries.
+    #[inline(always)]
+    const fn lower_index<const D: usize>(r: usize, c: usize) -> usize {
+        let (r, c) = if r >= c { (r, c) } else { (c, r) };
+        c * (2 * D - c + 1) / 2 + (r - c)
     }
 
     /// acc += B u + C1 v with the neighbours' B and C1 (`c22` from `positions`), one lane per
     /// neighbour. C1 is symmetric (λ tr(K⁻¹) I + 2μ K⁻¹ of a symmetric K, or c_s I), so only
-    /// its lower triangle is read: 11 pairs of entries instead of 13 with the positions.
+    /// its lower triangle is read: in 3D 11 pairs of entries instead of 13 with the positions.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn add_matrices<const CONTROL: bool>(
+    unsafe fn add_matrices<const D: usize, const CONTROL: bool>(
         p: &[*const f64; 4],
-        u: &[__m256d; 3],
-        v: &[__m256d; 3],
+        u: &[__m256d; D],
+        v: &[__m256d; D],
         c22: __m256d,
-        acc: &mut [__m256d; 3],
+        acc: &mut [__m256d; D],
     ) {
-        // B column-major: entry m is (m % 3, m / 3).
-        for q in 0..4 {
+        // B column-major: entry m is (m % D, m / D).
+        for q in 0..D * D / 2 {
             let (e0, e1) = pair(p, 2 * q);
             for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
-                acc[m % 3] = _mm256_fmadd_pd(e, u[m / 3], acc[m % 3]);
+                acc[m % D] = _mm256_fmadd_pd(e, u[m / D], acc[m % D]);
             }
         }
-        let (b22, c00) = pair(p, 8);
-        acc[2] = _mm256_fmadd_pd(b22, u[2], acc[2]);
-        if CONTROL {
-            let (c10, c20) = pair(p, RECORD_C1 + 1);
-            let (c11, c21) = pair(p, RECORD_C1 + 4);
-            add_symmetric(&[c00, c10, c20, c11, c21, c22], v, acc);
-        }
-    }
-
-    /// Words of C1's lower triangle (0,0), (1,0), (2,0), (1,1), (2,1), (2,2) in a record,
-    /// from `RECORD_C1` (column-major).
-    const C1_LOWER: [usize; 6] = [0, 1, 2, 4, 5, 8];
-
-    /// acc += C v for a symmetric C given by its lower triangle (the order of `C1_LOWER`),
-    /// each row in column order.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn add_symmetric(c: &[__m256d; 6], v: &[__m256d; 3], acc: &mut [__m256d; 3]) {
-        let rows = [[c[0], c[1], c[2]], [c[1], c[3], c[4]], [c[2], c[4], c[5]]];
-        for (r, row) in rows.iter().enumerate() {
-            for (e, v) in row.iter().zip(v) {
-                acc[r] = _mm256_fmadd_pd(*e, *v, acc[r]);
+        let c1 = record_c1(D);
+        if D == 2 {
+            if CONTROL {
+                let (c00, c10) = pair(p, c1);
+                let (_, c11) = pair(p, c1 + 2);
+                add_symmetric::<D>(&[c00, c10, c11, c11, c11, c11], v, acc);
+            }
+        } else {
+            let (b22, c00) = pair(p, 8);
+            acc[2] = _mm256_fmadd_pd(b22, u[2], acc[2]);
+            if CONTROL {
+                let (c10, c20) = pair(p, c1 + 1);
+                let (c11, c21) = pair(p, c1 + 4);
+                add_symmetric::<D>(&[c00, c10, c20, c11, c21, c22], v, acc);
             }
         }
     }
 
-    /// Prefetches the three cache lines of each record the force kernels read (words
-    /// 0..`RECORD_READ` of a 64-byte-aligned record).
+    /// acc += C v for a symmetric C given by its lower triangle (the order of `lower`; words
+    /// past D(D + 1)/2 unused), each row in column order.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn prefetch_records(points: *const f64, stride: usize, n: [usize; 4]) {
+    unsafe fn add_symmetric<const D: usize>(
+        c: &[__m256d; 6],
+        v: &[__m256d; D],
+        acc: &mut [__m256d; D],
+    ) {
+        for r in 0..D {
+            for (col, v) in v.iter().enumerate() {
+                acc[r] = _mm256_fmadd_pd(c[lower_index::<D>(r, col)], *v, acc[r]);
+            }
+        }
+    }
+
+    /// Prefetches the cache lines of each record the force kernels read (words
+    /// 0..`record_read(D)` of a 64-byte-aligned record: three lines in 3D, two in 2D).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn prefetch_records<const D: usize>(points: *const f64, stride: usize, n: [usize; 4]) {
         for k in n {
             let record = points.add(k * stride) as *const i8;
-            _mm_prefetch::<_MM_HINT_T0>(record);
-            _mm_prefetch::<_MM_HINT_T0>(record.add(64));
-            _mm_prefetch::<_MM_HINT_T0>(record.add(128));
+            for line in 0..(8 * record_read(D)).div_ceil(64) {
+                _mm_prefetch::<_MM_HINT_T0>(record.add(64 * line));
+            }
         }
     }
 
-    /// (x, y, z) of the nodes `n` in the flat positions `base`, less `origin`, one lane per
-    /// node: (x, y) and (y, z) pairs, so that no load reads past a node.
+    /// The positions of the nodes `n` in the flat positions `base` (D per node), less
+    /// `origin`, one lane per node: (x, y) and in 3D (y, z) pairs, so that no load reads past
+    /// a node.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn rows(base: *const f64, n: [usize; 4], origin: &[__m256d; 3]) -> [__m256d; 3] {
-        let p = n.map(|k| base.add(3 * k));
-        let (x, _) = pair(&p, 0);
-        let (y, z) = pair(&p, 1);
-        [
-            _mm256_sub_pd(x, origin[0]),
-            _mm256_sub_pd(y, origin[1]),
-            _mm256_sub_pd(z, origin[2]),
-        ]
+    unsafe fn rows<const D: usize>(
+        base: *const f64,
+        n: [usize; 4],
+        origin: &[__m256d; D],
+    ) -> [__m256d; D] {
+        let p = n.map(|k| base.add(D * k));
+        let (x, y) = pair(&p, 0);
+        let z = if D == 3 { pair(&p, 1).1 } else { x };
+        let v = first::<D>([x, y, z]);
+        std::array::from_fn(|a| _mm256_sub_pd(v[a], origin[a]))
     }
 
-    /// Node i's (x, y, z) in the flat positions `base`, broadcast.
+    /// Node i's position in the flat positions `base` (D per node), broadcast.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn own(base: *const f64, i: usize) -> [__m256d; 3] {
-        [
-            _mm256_set1_pd(*base.add(3 * i)),
-            _mm256_set1_pd(*base.add(3 * i + 1)),
-            _mm256_set1_pd(*base.add(3 * i + 2)),
-        ]
+    unsafe fn own<const D: usize>(base: *const f64, i: usize) -> [__m256d; D] {
+        std::array::from_fn(|a| _mm256_set1_pd(*base.add(D * i + a)))
     }
 
     /// |y|² in the generic loop's order, (x² + y²) + z².
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn square(d: &[__m256d; 3]) -> __m256d {
-        _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1])),
-            _mm256_mul_pd(d[2], d[2]),
-        )
+    unsafe fn square<const D: usize>(d: &[__m256d; D]) -> __m256d {
+        let mut s = _mm256_mul_pd(d[0], d[0]);
+        for v in &d[1..] {
+            s = _mm256_add_pd(s, _mm256_mul_pd(*v, *v));
+        }
+        s
     }
 
     /// ω(|ξ|) x on four lanes (ω = δ/|ξ| when `INVERSE`, else 1).
@@ -437,7 +530,8 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn sums<
+    unsafe fn sums<
+        const D: usize,
         const DECIDE: bool,
         const WITH_K: bool,
         const HHB: bool,
@@ -447,16 +541,17 @@ mod avx {
         law: &CorrespondenceLaw,
         w: &UniformWeights,
     ) -> Sums {
+        debug_assert_eq!(nb.dim, D);
         let i = nb.i;
         let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
-        let yi = own(current, i);
-        let xi_i = own(reference, i);
+        let yi = own::<D>(current, i);
+        let xi_i = own::<D>(reference, i);
         let zero = _mm256_setzero_pd();
-        // K's lower triangle (K is symmetric): (0,0), (1,0), (2,0), (1,1), (2,1), (2,2).
+        // K's lower triangle (K is symmetric), in the order of `lower`.
         let mut k = [zero; 6];
-        // N column-major: entry (r, c) at 3c + r, as `SMatrix`.
+        // N column-major: entry (r, c) at D c + r, as `SMatrix`.
         let mut n = [zero; 9];
-        let mut sxi = [zero; 3];
+        let mut sxi = [zero; D];
         let s0 = nb.s0.unwrap_or(f64::INFINITY);
         let near = _mm256_set1_pd((1.0 + s0) * (1.0 + s0) * (1.0 - 1e-12));
         let s0 = _mm256_set1_pd(s0);
@@ -466,66 +561,58 @@ mod avx {
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
-            let d = rows(current, j, &yi);
+            let d = rows::<D>(current, j, &yi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = keep_lanes!(DECIDE, nb, b, &d, l, s0, near, broke);
             kept[(b / 64) & 3] |= (_mm256_movemask_pd(keep) as u64) << (b % 64);
             let s = weight::<HHB, INVERSE>(law, w, l, keep);
-            let xi = rows(reference, j, &xi_i);
+            let xi = rows::<D>(reference, j, &xi_i);
             // K += (ξ s) ξᵀ, N += (η s) ξᵀ (the generic `accumulate`, fused).
             if WITH_K {
-                let xs = [
-                    _mm256_mul_pd(xi[0], s),
-                    _mm256_mul_pd(xi[1], s),
-                    _mm256_mul_pd(xi[2], s),
-                ];
-                k[0] = _mm256_fmadd_pd(xs[0], xi[0], k[0]);
-                k[1] = _mm256_fmadd_pd(xs[1], xi[0], k[1]);
-                k[2] = _mm256_fmadd_pd(xs[2], xi[0], k[2]);
-                k[3] = _mm256_fmadd_pd(xs[1], xi[1], k[3]);
-                k[4] = _mm256_fmadd_pd(xs[2], xi[1], k[4]);
-                k[5] = _mm256_fmadd_pd(xs[2], xi[2], k[5]);
-                for a in 0..3 {
+                let xs: [__m256d; D] = std::array::from_fn(|a| _mm256_mul_pd(xi[a], s));
+                for (e, (r, c)) in lower::<D>().enumerate() {
+                    k[e] = _mm256_fmadd_pd(xs[r], xi[c], k[e]);
+                }
+                for a in 0..D {
                     sxi[a] = _mm256_add_pd(sxi[a], xs[a]);
                 }
             }
-            for r in 0..3 {
+            for r in 0..D {
                 let es = _mm256_mul_pd(_mm256_sub_pd(d[r], xi[r]), s);
-                for c in 0..3 {
-                    n[3 * c + r] = _mm256_fmadd_pd(es, xi[c], n[3 * c + r]);
+                for c in 0..D {
+                    n[D * c + r] = _mm256_fmadd_pd(es, xi[c], n[D * c + r]);
                 }
             }
             b += 4;
         }
-        let (k00, k10, k20, k11, k21, k22) = (
-            sum(k[0]),
-            sum(k[1]),
-            sum(k[2]),
-            sum(k[3]),
-            sum(k[4]),
-            sum(k[5]),
-        );
-        let mut ks = [k00, k10, k20, k10, k11, k21, k20, k21, k22];
+        let mut ks = [0.0; 9];
+        for (e, (r, c)) in lower::<D>().enumerate() {
+            let v = sum(k[e]);
+            (ks[D * c + r], ks[D * r + c]) = (v, v);
+        }
         let mut ns = [0.0; 9];
-        for e in 0..9 {
+        for e in 0..D * D {
             ns[e] = sum(n[e]);
         }
-        let mut sx = sxi.map(|v| sum(v));
+        let mut sx = [0.0; 3];
+        for a in 0..D {
+            sx[a] = sum(sxi[a]);
+        }
         broke += tail(nb, b, |b, j, l, d, _| {
             kept[(b / 64) & 3] |= 1 << (b % 64);
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
-            let xi = law.xi(i, j);
-            for r in 0..3 {
+            let xi = law.xi::<D>(i, j);
+            for r in 0..D {
                 let (xs, es) = (xi[r] * s, (d[r] - xi[r]) * s);
                 if WITH_K {
                     sx[r] += xs;
                 }
-                for c in 0..3 {
+                for c in 0..D {
                     if WITH_K {
-                        ks[3 * c + r] += xs * xi[c];
+                        ks[D * c + r] += xs * xi[c];
                     }
-                    ns[3 * c + r] += es * xi[c];
+                    ns[D * c + r] += es * xi[c];
                 }
             }
         });
@@ -539,7 +626,7 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn force<const CONTROL: bool, const HHB: bool, const INVERSE: bool>(
+    unsafe fn force<const D: usize, const CONTROL: bool, const HHB: bool, const INVERSE: bool>(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
@@ -550,19 +637,20 @@ mod avx {
             nb.s0.is_none(),
             "the correspondence force pass does not decide failure"
         );
+        debug_assert_eq!(nb.dim, D);
         let i = nb.i;
-        let yi = own(nb.current.as_ptr(), i);
-        let xi_i = own(law.reference.as_ptr(), i);
+        let yi = own::<D>(nb.current.as_ptr(), i);
+        let xi_i = own::<D>(law.reference.as_ptr(), i);
         let zero = _mm256_setzero_pd();
         // One sum per row for both the B and the C1 terms: fewer live registers (the sums
         // spilled to the stack when the B and C1 terms had their own).
-        let (mut other, mut seta) = ([zero; 3], [zero; 3]);
+        let (mut other, mut seta) = ([zero; D], [zero; D]);
         let mut b = 0;
         let base = points.as_ptr();
         while b + 4 <= nb.neighbors.len() {
             let p = neighbours(nb, b).map(|k| base.add(k * stride));
-            let (y, x, c22) = positions::<CONTROL>(&p);
-            let d: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
+            let (y, x, c22) = positions::<D, CONTROL>(&p);
+            let d: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = _mm256_and_pd(
@@ -570,25 +658,27 @@ mod avx {
                 _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
             );
             let s = weight::<HHB, INVERSE>(law, w, l, keep);
-            let xi: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
+            let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
             let xs = xi.map(|v| _mm256_mul_pd(v, s));
-            let es: [__m256d; 3] =
+            let es: [__m256d; D] =
                 std::array::from_fn(|a| _mm256_mul_pd(_mm256_sub_pd(d[a], xi[a]), s));
-            for a in 0..3 {
+            for a in 0..D {
                 seta[a] = _mm256_add_pd(seta[a], es[a]);
             }
             // Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
-            add_matrices::<CONTROL>(&p, &xs, &es, c22, &mut other);
+            add_matrices::<D, CONTROL>(&p, &xs, &es, c22, &mut other);
             b += 4;
         }
-        let mut f = other.map(|v| sum(v));
-        let mut se = seta.map(|v| sum(v));
+        let (mut f, mut se) = ([0.0; 3], [0.0; 3]);
+        for a in 0..D {
+            (f[a], se[a]) = (sum(other[a]), sum(seta[a]));
+        }
         tail(nb, b, |_, j, l, d, _| {
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
-            let xi = law.xi(i, j);
+            let xi = law.xi::<D>(i, j);
             let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
-            let v = linear_half::<CONTROL>(&points[j * stride..j * stride + 18], &xi, &eta);
-            for r in 0..3 {
+            let v = linear_half::<D, CONTROL>(&points[j * stride..], &xi, &eta);
+            for r in 0..D {
                 se[r] += eta[r] * s;
                 f[r] += v[r] * s;
             }
@@ -596,15 +686,27 @@ mod avx {
         (f, se)
     }
 
-    /// B ξ + C1 η of one bond from the 18 entries `m` (B then C1, column-major), in the
-    /// generic `linear_half`'s order: (B ξ) + (C1 η), each row ((m₀ξ₀ + m₁ξ₁) + m₂ξ₂).
+    /// B ξ + C1 η of one bond from a record `m` (B then C1, column-major), in the generic
+    /// `linear_half`'s order: (B ξ) + (C1 η), each row ((m₀ξ₀ + m₁ξ₁) + m₂ξ₂); zero past D.
     #[inline(always)]
-    fn linear_half<const CONTROL: bool>(m: &[f64], xi: &[f64; 3], eta: &[f64; 3]) -> [f64; 3] {
+    fn linear_half<const D: usize, const CONTROL: bool>(
+        m: &[f64],
+        xi: &[f64; 3],
+        eta: &[f64; 3],
+    ) -> [f64; 3] {
+        let c1 = record_c1(D);
         let mut v = [0.0; 3];
-        for r in 0..3 {
-            v[r] = m[r] * xi[0] + m[3 + r] * xi[1] + m[6 + r] * xi[2];
+        for r in 0..D {
+            v[r] = m[r] * xi[0];
+            for c in 1..D {
+                v[r] += m[D * c + r] * xi[c];
+            }
             if CONTROL {
-                v[r] += m[9 + r] * eta[0] + m[12 + r] * eta[1] + m[15 + r] * eta[2];
+                let mut t = m[c1 + r] * eta[0];
+                for c in 1..D {
+                    t += m[c1 + D * c + r] * eta[c];
+                }
+                v[r] += t;
             }
         }
         v
@@ -634,7 +736,12 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn force_work<const CONTROL: bool, const HHB: bool, const INVERSE: bool>(
+    unsafe fn force_work<
+        const D: usize,
+        const CONTROL: bool,
+        const HHB: bool,
+        const INVERSE: bool,
+    >(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
@@ -642,25 +749,29 @@ mod avx {
         points: &[f64],
         stride: usize,
     ) -> ([f64; 3], u64) {
+        debug_assert_eq!(nb.dim, D);
         let i = nb.i;
         let previous = nb.previous.as_ptr();
         let (yi, xi_i, pi) = (
-            own(nb.current.as_ptr(), i),
-            own(law.reference.as_ptr(), i),
-            own(previous, i),
+            own::<D>(nb.current.as_ptr(), i),
+            own::<D>(law.reference.as_ptr(), i),
+            own::<D>(previous, i),
         );
         let base = points.as_ptr();
+        let zero = _mm256_setzero_pd();
         // Node i's B and C1's lower triangle (C1 is symmetric, see `add_matrices`), broadcast.
         let entry = |m: usize| _mm256_set1_pd(*base.add(i * stride + m));
-        let mine_b: [__m256d; 9] = std::array::from_fn(entry);
-        let mine_c1 = C1_LOWER.map(|m| entry(RECORD_C1 + m));
-        let zero = _mm256_setzero_pd();
+        let mine_b: [__m256d; 9] = std::array::from_fn(|m| if m < D * D { entry(m) } else { zero });
+        let mut mine_c1 = [zero; 6];
+        for (e, (r, c)) in lower::<D>().enumerate() {
+            mine_c1[e] = entry(record_c1(D) + D * c + r);
+        }
         let (half, wc, volume) = (
             _mm256_set1_pd(0.5),
             _mm256_set1_pd(energy.wc),
             _mm256_set1_pd(w.node.volume),
         );
-        let mut acc = [zero; 3];
+        let mut acc = [zero; D];
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
@@ -669,10 +780,10 @@ mod avx {
             // The work records stream through the cache and evict the neighbours' records,
             // whose loads the loop then waited on: fetch those of two groups on.
             if b + 12 <= nb.neighbors.len() {
-                prefetch_records(base, stride, neighbours(nb, b + 8));
+                prefetch_records::<D>(base, stride, neighbours(nb, b + 8));
             }
-            let (y, x, c22) = positions::<CONTROL>(&p);
-            let d: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
+            let (y, x, c22) = positions::<D, CONTROL>(&p);
+            let d: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             // Intact and of non-zero length: the bonds the generic loop records work for.
@@ -680,33 +791,35 @@ mod avx {
                 intact(nb.status, b),
                 _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
             );
-            let xi: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
-            let eta: [__m256d; 3] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
+            let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
+            let eta: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
             // Both halves' B ξ + C1 η: node i's from its broadcast entries, then the
             // neighbours'.
-            let mut t: [__m256d; 3] = std::array::from_fn(|r| {
-                let v = _mm256_mul_pd(mine_b[r], xi[0]);
-                let v = _mm256_fmadd_pd(mine_b[3 + r], xi[1], v);
-                _mm256_fmadd_pd(mine_b[6 + r], xi[2], v)
+            let mut t: [__m256d; D] = std::array::from_fn(|r| {
+                let mut v = _mm256_mul_pd(mine_b[r], xi[0]);
+                for c in 1..D {
+                    v = _mm256_fmadd_pd(mine_b[D * c + r], xi[c], v);
+                }
+                v
             });
             if CONTROL {
-                add_symmetric(&mine_c1, &eta, &mut t);
+                add_symmetric::<D>(&mine_c1, &eta, &mut t);
             }
-            add_matrices::<CONTROL>(&p, &xi, &eta, c22, &mut t);
-            // The pair force T = ω φ (both halves), the generic `pair_force` without V.
+            add_matrices::<D, CONTROL>(&p, &xi, &eta, c22, &mut t);
+            // The pair force T = ω φ (both halves), the generic `pair_force` without V; its
+            // third component and that of Δη are zero in 2D (the record's padding).
             let wp = omega_phi::<HHB, INVERSE>(law, w, l);
-            let force = [
-                _mm256_mul_pd(t[0], wp),
-                _mm256_mul_pd(t[1], wp),
-                _mm256_mul_pd(t[2], wp),
-            ];
+            let force: [__m256d; 3] =
+                std::array::from_fn(|a| if a < D { _mm256_mul_pd(t[a], wp) } else { zero });
             // Δη = y − (y_j − y_i at the previous evaluation).
-            let dp = rows(previous, j, &pi);
-            let step = [
-                _mm256_sub_pd(d[0], dp[0]),
-                _mm256_sub_pd(d[1], dp[1]),
-                _mm256_sub_pd(d[2], dp[2]),
-            ];
+            let dp = rows::<D>(previous, j, &pi);
+            let step: [__m256d; 3] = std::array::from_fn(|a| {
+                if a < D {
+                    _mm256_sub_pd(d[a], dp[a])
+                } else {
+                    zero
+                }
+            });
             // The records [w, T] of the four bonds, as lanes; the records four groups on are
             // prefetched (the stream of 64 bytes per bond read and written each evaluation
             // otherwise stalls the loop on memory; a prefetch past the end is harmless).
@@ -753,7 +866,9 @@ mod avx {
             let mut bits = _mm256_movemask_pd(over);
             if bits != 0 {
                 if energy.tension_only {
-                    bits = in_tension(bits, d.map(|v| lanes(v)), lanes(l));
+                    let lanes3 =
+                        std::array::from_fn(|a| if a < D { lanes(d[a]) } else { [0.0; 4] });
+                    bits = in_tension(bits, lanes3, lanes(l));
                 }
                 if bits != 0 {
                     broke += break_lanes(nb, b, bits);
@@ -761,19 +876,25 @@ mod avx {
                 }
             }
             // The generic loop's T V over the bonds that hold.
-            for a in 0..3 {
+            for a in 0..D {
                 acc[a] = _mm256_fmadd_pd(_mm256_and_pd(force[a], keep), volume, acc[a]);
             }
             b += 4;
         }
-        let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
-        let pts = |k: usize| &points[k * stride..k * stride + 18];
+        let mut f = [0.0; 3];
+        for a in 0..D {
+            f[a] = sum(acc[a]);
+        }
+        let pts = |k: usize| &points[k * stride..k * stride + 2 * D * D];
+        // Node k's position in the flat `v` (D per node), z = 0 in 2D.
+        let at = |v: &[f64], k: usize| -> [f64; 3] {
+            std::array::from_fn(|a| if a < D { v[D * k + a] } else { 0.0 })
+        };
         for b in b..nb.neighbors.len() {
             if nb.status[b] != INTACT {
                 continue;
             }
             let j = nb.neighbors[b] as usize;
-            let at = |v: &[f64], k: usize| [v[3 * k], v[3 * k + 1], v[3 * k + 2]];
             let (yj, yi, pj, pi) = (
                 at(nb.current, j),
                 at(nb.current, i),
@@ -789,11 +910,11 @@ mod avx {
             // C1_j η), its work, failure, T V.
             let l = nb.ref_lengths[b];
             let (om, p) = (law.omega(l), w.phi(l));
-            let xi = law.xi(i, j);
+            let xi = law.xi::<D>(i, j);
             let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
             let (own_half, other) = (
-                linear_half::<CONTROL>(pts(i), &xi, &eta),
-                linear_half::<CONTROL>(pts(j), &xi, &eta),
+                linear_half::<D, CONTROL>(pts(i), &xi, &eta),
+                linear_half::<D, CONTROL>(pts(j), &xi, &eta),
             );
             let force: [f64; 3] = std::array::from_fn(|a| own_half[a] * om * p + other[a] * om * p);
             let step: [f64; 3] = std::array::from_fn(|a| d[a] - (pj[a] - pi[a]));
@@ -810,7 +931,7 @@ mod avx {
             if nb.status[b] == BROKEN {
                 continue;
             }
-            for a in 0..3 {
+            for a in 0..D {
                 f[a] += force[a] * w.node.volume;
             }
         }

@@ -10,7 +10,7 @@
 //! identical for any thread count. `tests/suite/kernels.rs` checks them against the generic loop.
 //!
 //! The LPS pre-pass needs only the bond status under this law and runs the ordinary kernel
-//! in 3D (`simd::lps_dilatation_sum`, with no failure decided), the generic loop in 2D.
+//! (`simd::lps_dilatation_sum`, with no failure decided).
 
 #[cfg(target_arch = "x86_64")]
 use super::simd::avx::{

@@ -31,8 +31,8 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     pub material: M,
     pub damage: Damage,
     pub quad: Quadrature,
-    /// Use the models' AVX2 kernels where they apply (3D, uniform grid, one critical
-    /// stretch, x86-64 with AVX2).
+    /// Use the models' AVX2 kernels where they apply (uniform grid, one uniform damage law
+    /// a kernel implements, x86-64 with AVX2).
     pub vector_kernels: bool,
     /// Every neighbour index is a node of the body (checked once; the kernel relies on it).
     neighbors_in_bounds: bool,
@@ -411,10 +411,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let mut add = |counts: Vec<u64>| {
             per_chunk.iter_mut().zip(counts).for_each(|(a, c)| *a += c);
         };
-        // The AVX2 kernels, where the model has them: uniform grid, one critical stretch (PMB
-        // in 2D and 3D, the others in 3D), one softening law (PMB), or one critical energy
-        // (with a linear bond's closed form, a central model's two-word work record, or in 3D
-        // a non-central model's four-word one); x86-64 with AVX2, and neighbour indices known
+        // The AVX2 kernels, where the model has them (2D and 3D): uniform grid, one critical
+        // stretch, one softening law (PMB), or one critical energy (with a linear bond's
+        // closed form, a central model's two-word work record, or a non-central model's
+        // four-word one); x86-64 with AVX2, and neighbour indices known
         // to be in bounds (the kernels' gathers rely on it). A model without the kernel for
         // the case returns `None` and the generic loop runs.
         let s0 = damage.uniform_critical_stretch();
@@ -424,7 +424,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             .filter(|_| match bond_force::<D, M>() {
                 BondForce::Linear => hw == 0,
                 BondForce::Central => hw == 2,
-                BondForce::Vector => D == 3 && hw == 4,
+                BondForce::Vector => hw == 4,
             });
         let vector = if (s0.is_some() || softening.is_some() || work.is_some())
             && self.vector_kernels
