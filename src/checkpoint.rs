@@ -323,6 +323,16 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// Whether a checkpoint's `found` history words, where this build keeps `expected` for the
+/// same deck, are a per-bond record it no longer needs: none kept now, a whole number of words
+/// per bond entry in the file. PMB under one critical energy wrote two words per bond (the
+/// trapezoidal work record) before its work was taken in closed form, ½ f e, which is what
+/// the record summed for a linear bond (`damage::Work::Stored`); such a checkpoint continues
+/// without it.
+fn unused_history(found: u64, expected: usize, bond_entries: usize) -> bool {
+    expected == 0 && bond_entries > 0 && found != 0 && found % bond_entries as u64 == 0
+}
+
 /// Restores `state` (built by the same deck) and returns the driver state from the checkpoint
 /// at `path`, refusing one from another program or deck, of other sizes, truncated or corrupt.
 pub fn restore<const D: usize>(
@@ -386,6 +396,9 @@ pub fn restore<const D: usize>(
         dt,
         iterations,
     } = state;
+    // History words in the file: a record that this build's damage law no longer keeps is
+    // read past (see `unused_history`).
+    let mut file_history = history.len();
     for (what, expected) in [
         ("dimensions", D),
         ("nodes", u.len()),
@@ -394,6 +407,10 @@ pub fn restore<const D: usize>(
         ("previous positions", previous.len()),
     ] {
         let found = r.u64()?;
+        if what == "damage history words" && unused_history(found, expected, status.len()) {
+            file_history = found as usize;
+            continue;
+        }
         if found != expected as u64 {
             return Err(CheckpointError::Size {
                 path: path.to_path_buf(),
@@ -417,7 +434,7 @@ pub fn restore<const D: usize>(
     let payload = SCALARS * 8
         + 5 * n * D * 8
         + status.len()
-        + history.len() * 8
+        + file_history * 8
         + (previous.len() + predictor) * D * 8
         + impactors.saturating_mul((3 * D + 1) * 8);
     let expected = r.pos.saturating_add(payload).saturating_add(8) as u64;
@@ -459,9 +476,10 @@ pub fn restore<const D: usize>(
     for a in [u, v, current, force, body_force] {
         r.vectors(a)?;
     }
-    let (bond_entries, words) = (status.len(), history.len());
+    let bond_entries = status.len();
     status.copy_from_slice(r.take(bond_entries)?);
-    for (x, chunk) in history.iter_mut().zip(r.take(words * 8)?.chunks_exact(8)) {
+    // (Nothing is copied from a record this build does not keep: `history` is empty then.)
+    for (x, chunk) in history.iter_mut().zip(r.take(file_history * 8)?.chunks_exact(8)) {
         *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
     }
     r.vectors(previous)?;
@@ -499,5 +517,68 @@ mod tests {
         assert_eq!(fnv1a(FNV_OFFSET, b""), 0xcbf29ce484222325);
         assert_eq!(fnv1a(FNV_OFFSET, b"a"), 0xaf63dc4c8601ec8c);
         assert_eq!(fnv1a(FNV_OFFSET, b"foobar"), 0x85944171f73967e8);
+    }
+
+    /// A state of three nodes and six bond entries with `words` history words per entry,
+    /// every field set to something other than its reference value.
+    fn state(words: usize) -> State<2> {
+        let vectors = |k: f64| (0..3).map(|i| Vector::<2>::new(k * i as f64, -k)).collect();
+        State {
+            time: 0.25,
+            step: 7,
+            u: vectors(1e-6),
+            v: vectors(2.0),
+            current: vectors(1e-3),
+            force: vectors(5e9),
+            body_force: vectors(0.0),
+            status: vec![0, 1, 0, 0, 3, 0],
+            history: (0..6 * words).map(|k| 1.5 * k as f64).collect(),
+            previous: Vec::new(),
+            broken: 2,
+            external_work: 4.0,
+            dissipated_viscous: 0.5,
+            dissipated_damage: 1.5,
+            dt: 1e-8,
+            iterations: 3,
+        }
+    }
+
+    /// A checkpoint with a per-bond record that this build keeps none of for the deck (PMB's
+    /// critical-energy work record before its closed form) continues without it; a record of
+    /// another size than this build keeps is still refused.
+    #[test]
+    fn a_history_record_no_longer_kept_is_read_past() {
+        let dir = std::env::temp_dir().join(format!("peridyn-checkpoint-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(FILE_NAME);
+        let origin = Origin::new("deck", Path::new("deck.toml"));
+        let old = state(2);
+        write(&path, &origin, &old, &DriverState::default()).unwrap();
+
+        let mut now = state(0);
+        now.u.fill(Vector::zeros());
+        now.status.fill(0);
+        now.step = 0;
+        let driver = restore(&path, &origin, &mut now).unwrap();
+        assert_eq!(driver, DriverState::default());
+        assert!(now.u == old.u && now.status == old.status && now.step == old.step);
+        assert!(now.force == old.force && now.dissipated_damage == old.dissipated_damage);
+        assert!(now.history.is_empty());
+
+        let mut other = state(4);
+        let refused = restore(&path, &origin, &mut other);
+        assert!(
+            matches!(
+                refused,
+                Err(CheckpointError::Size {
+                    what: "damage history words",
+                    found: 12,
+                    expected: 24,
+                    ..
+                })
+            ),
+            "{refused:?}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
