@@ -330,7 +330,7 @@ impl<'a> Reader<'a> {
 /// the record summed for a linear bond (`damage::Work::Stored`); such a checkpoint continues
 /// without it.
 fn unused_history(found: u64, expected: usize, bond_entries: usize) -> bool {
-    expected == 0 && bond_entries > 0 && found != 0 && found % bond_entries as u64 == 0
+    expected == 0 && bond_entries > 0 && found != 0 && found.is_multiple_of(bond_entries as u64)
 }
 
 /// Restores `state` (built by the same deck) and returns the driver state from the checkpoint
@@ -479,7 +479,10 @@ pub fn restore<const D: usize>(
     let bond_entries = status.len();
     status.copy_from_slice(r.take(bond_entries)?);
     // (Nothing is copied from a record this build does not keep: `history` is empty then.)
-    for (x, chunk) in history.iter_mut().zip(r.take(file_history * 8)?.chunks_exact(8)) {
+    for (x, chunk) in history
+        .iter_mut()
+        .zip(r.take(file_history * 8)?.chunks_exact(8))
+    {
         *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
     }
     r.vectors(previous)?;

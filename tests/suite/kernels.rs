@@ -238,14 +238,23 @@ fn correspondence_kernels_match_the_generic_loop() {
 /// The correspondence pre-pass reuses a node's shape tensor K while the bonds that carry force
 /// are the same: a field that breaks bonds, then every bond intact again (as when a rejected
 /// adaptive step restores the state) under a second field that breaks others, then that field
-/// again (K reused), then with the centre node cut from all but two neighbours (detached: its
-/// neighbours still read its positions from its point record). Each evaluation matches the
-/// generic loop, which always sums K.
+/// again (K reused), then with the centre node cut from all but D − 1 neighbours (detached:
+/// its neighbours still read its positions from its point record). Each evaluation matches the
+/// generic loop, which always sums K. In 3D and in 2D.
 #[test]
 fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
+    shape_tensor_reuse::<3>(Dimensionality::ThreeD);
+    shape_tensor_reuse::<2>(Dimensionality::PlaneStress);
+}
+
+fn shape_tensor_reuse<const D: usize>(dim: Dimensionality)
+where
+    peridyn::material::correspondence::Correspondence:
+        Material<D, Point = peridyn::material::correspondence::CorrespondencePoint<D>>,
+{
     use peridyn::material::correspondence::ZeroEnergyControl;
     let material = correspondence(
-        Dimensionality::ThreeD,
+        dim,
         70e9,
         0.25,
         3e-3,
@@ -253,7 +262,7 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
     );
     let rule = PartialVolume::Hhb;
     let evaluate = |vector: bool| {
-        let (body, bonds) = lattice_body::<3>(9, 1e-3, 3.0, rule);
+        let (body, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
         let mut sim = simulation(
             body,
             bonds,
@@ -275,13 +284,13 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
                 sim.state.status.fill(0);
             }
             if cut {
-                for b in sim.bonds.family(centre).skip(2) {
+                for b in sim.bonds.family(centre).skip(D - 1) {
                     sim.state.status[b] = BROKEN;
                     sim.state.status[sim.bonds.reverse(centre, b).unwrap()] = BROKEN;
                 }
             }
             for i in 0..body.len() {
-                let u = Vector::<3>::from_fn(|k, _| {
+                let u = Vector::<D>::from_fn(|k, _| {
                     2e-3 * body.positions[i][k] * (1.0 + 0.5 * noise(3 * i + k + seed * 7919))
                 });
                 sim.state.set_displacement(&body, i, u);
@@ -304,7 +313,7 @@ fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
         "the second field must break other bonds than the first"
     );
     for (k, ((fv, sv), (fg, sg))) in vector.iter().zip(&generic).enumerate() {
-        check((&format!("evaluation {k}"), fv, sv), (fg, sg));
+        check((&format!("evaluation {k}, {D}D"), fv, sv), (fg, sg));
     }
 }
 
