@@ -183,7 +183,6 @@ pub unsafe fn correspondence_force_work(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[cfg(target_arch = "x86_64")]
 mod avx {
     use super::*;
     use crate::damage::{DamageLaw, Work};
