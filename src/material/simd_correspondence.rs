@@ -116,10 +116,18 @@ pub unsafe fn correspondence_sums(
 ) -> Sums {
     #[cfg(target_arch = "x86_64")]
     {
-        if nb.dim == 2 {
-            avx::sums_in::<2>(nb, law, w, with_k)
-        } else {
-            avx::sums_in::<3>(nb, law, w, with_k)
+        let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
+        match (nb.s0.is_some(), with_k) {
+            (true, true) => avx::with_flags!(avx::sums, dim, [true, true], hhb, law, (nb, law, w)),
+            (true, false) => {
+                avx::with_flags!(avx::sums, dim, [true, false], hhb, law, (nb, law, w))
+            }
+            (false, true) => {
+                avx::with_flags!(avx::sums, dim, [false, true], hhb, law, (nb, law, w))
+            }
+            (false, false) => {
+                avx::with_flags!(avx::sums, dim, [false, false], hhb, law, (nb, law, w))
+            }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -127,7 +135,7 @@ pub unsafe fn correspondence_sums(
 }
 
 /// Force pass of node i: the sum of the other halves ω φ V (B_j ξ + C1_j η) over its intact
-/// bonds; `points` holds each node's point state as `stride` f64 laid out as the `RECORD_*`
+/// bonds; `points` holds each node's point state as `stride` f64 laid out as the `record_*`
 /// offsets say, from this evaluation's pre-pass (C1 symmetric: the kernels read its lower
 /// triangle).
 ///
@@ -143,10 +151,25 @@ pub unsafe fn correspondence_force(
 ) -> ([f64; 3], [f64; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if nb.dim == 2 {
-            avx::force_in::<2>(nb, law, w, points, stride)
+        let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
+        if law.control {
+            avx::with_flags!(
+                avx::force,
+                dim,
+                [true],
+                hhb,
+                law,
+                (nb, law, w, points, stride)
+            )
         } else {
-            avx::force_in::<3>(nb, law, w, points, stride)
+            avx::with_flags!(
+                avx::force,
+                dim,
+                [false],
+                hhb,
+                law,
+                (nb, law, w, points, stride)
+            )
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -172,10 +195,25 @@ pub unsafe fn correspondence_force_work(
     debug_assert_eq!(nb.previous.len(), nb.current.len());
     #[cfg(target_arch = "x86_64")]
     {
-        if nb.dim == 2 {
-            avx::force_work_in::<2>(nb, law, w, energy, points, stride)
+        let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
+        if law.control {
+            avx::with_flags!(
+                avx::force_work,
+                dim,
+                [true],
+                hhb,
+                law,
+                (nb, law, w, energy, points, stride)
+            )
         } else {
-            avx::force_work_in::<3>(nb, law, w, energy, points, stride)
+            avx::with_flags!(
+                avx::force_work,
+                dim,
+                [false],
+                hhb,
+                law,
+                (nb, law, w, energy, points, stride)
+            )
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -191,83 +229,24 @@ mod avx {
     use crate::state::{BROKEN, INTACT};
     use std::arch::x86_64::*;
 
-    /// Calls `kernel::<FLAGS.., HHB, INVERSE>(args..)` with the partial-volume rule (`HHB`)
-    /// and the influence function (`INVERSE`: ω = δ/|ξ|) as compile-time flags: tested inside
-    /// the bond loop, they were not hoisted out of it.
-    macro_rules! with_weights {
-        ($($kernel:ident)::+, [$($flag:expr),*], $hhb:expr, $law:expr, ($($arg:expr),*)) => {
-            match ($hhb, $law.inverse_influence) {
-                (true, true) => $($kernel)::+::<$($flag,)* true, true>($($arg),*),
-                (true, false) => $($kernel)::+::<$($flag,)* true, false>($($arg),*),
-                (false, true) => $($kernel)::+::<$($flag,)* false, true>($($arg),*),
-                (false, false) => $($kernel)::+::<$($flag,)* false, false>($($arg),*),
+    /// Calls `kernel::<D, FLAGS.., HHB, INVERSE>` with the dimension `D` (2 or 3), the
+    /// partial-volume rule (`HHB`) and the influence function (`INVERSE`: ω = δ/|ξ|) as
+    /// compile-time flags (tested inside the bond loop, they were not hoisted out of it).
+    macro_rules! with_flags {
+        ($($kernel:ident)::+, $dim:expr, [$($flag:expr),*], $hhb:expr, $law:expr, ($($arg:expr),*)) => {
+            match ($dim == 2, $hhb, $law.inverse_influence) {
+                (true, true, true) => $($kernel)::+::<2, $($flag,)* true, true>($($arg),*),
+                (true, true, false) => $($kernel)::+::<2, $($flag,)* true, false>($($arg),*),
+                (true, false, true) => $($kernel)::+::<2, $($flag,)* false, true>($($arg),*),
+                (true, false, false) => $($kernel)::+::<2, $($flag,)* false, false>($($arg),*),
+                (false, true, true) => $($kernel)::+::<3, $($flag,)* true, true>($($arg),*),
+                (false, true, false) => $($kernel)::+::<3, $($flag,)* true, false>($($arg),*),
+                (false, false, true) => $($kernel)::+::<3, $($flag,)* false, true>($($arg),*),
+                (false, false, false) => $($kernel)::+::<3, $($flag,)* false, false>($($arg),*),
             }
         };
     }
-
-    /// `sums` with its flags: whether it decides failure (`nb.s0`), `with_k`, the weights.
-    #[inline(always)]
-    pub(super) unsafe fn sums_in<const D: usize>(
-        nb: &mut NodeBonds,
-        law: &CorrespondenceLaw,
-        w: &UniformWeights,
-        with_k: bool,
-    ) -> Sums {
-        let hhb = w.rule == PartialVolume::Hhb;
-        match (nb.s0.is_some(), with_k) {
-            (true, true) => with_weights!(sums, [D, true, true], hhb, law, (nb, law, w)),
-            (true, false) => with_weights!(sums, [D, true, false], hhb, law, (nb, law, w)),
-            (false, true) => with_weights!(sums, [D, false, true], hhb, law, (nb, law, w)),
-            (false, false) => with_weights!(sums, [D, false, false], hhb, law, (nb, law, w)),
-        }
-    }
-
-    /// `force` with its flags: zero-energy control, the weights.
-    #[inline(always)]
-    pub(super) unsafe fn force_in<const D: usize>(
-        nb: &mut NodeBonds,
-        law: &CorrespondenceLaw,
-        w: &UniformWeights,
-        points: &[f64],
-        stride: usize,
-    ) -> ([f64; 3], [f64; 3]) {
-        let hhb = w.rule == PartialVolume::Hhb;
-        if law.control {
-            with_weights!(force, [D, true], hhb, law, (nb, law, w, points, stride))
-        } else {
-            with_weights!(force, [D, false], hhb, law, (nb, law, w, points, stride))
-        }
-    }
-
-    /// `force_work` with its flags: zero-energy control, the weights.
-    #[inline(always)]
-    pub(super) unsafe fn force_work_in<const D: usize>(
-        nb: &mut NodeBonds,
-        law: &CorrespondenceLaw,
-        w: &UniformWeights,
-        energy: &UniformCriticalEnergy,
-        points: &[f64],
-        stride: usize,
-    ) -> ([f64; 3], u64) {
-        let hhb = w.rule == PartialVolume::Hhb;
-        if law.control {
-            with_weights!(
-                force_work,
-                [D, true],
-                hhb,
-                law,
-                (nb, law, w, energy, points, stride)
-            )
-        } else {
-            with_weights!(
-                force_work,
-                [D, false],
-                hhb,
-                law,
-                (nb, law, w, energy, points, stride)
-            )
-        }
-    }
+    pub(super) use with_flags;
 
     /// The neighbours of bonds b..b+4.
     #[inline(always)]
@@ -529,7 +508,7 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn sums<
+    pub(super) unsafe fn sums<
         const D: usize,
         const DECIDE: bool,
         const WITH_K: bool,
@@ -625,7 +604,12 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn force<const D: usize, const CONTROL: bool, const HHB: bool, const INVERSE: bool>(
+    pub(super) unsafe fn force<
+        const D: usize,
+        const CONTROL: bool,
+        const HHB: bool,
+        const INVERSE: bool,
+    >(
         nb: &mut NodeBonds,
         law: &CorrespondenceLaw,
         w: &UniformWeights,
@@ -735,7 +719,7 @@ mod avx {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn force_work<
+    pub(super) unsafe fn force_work<
         const D: usize,
         const CONTROL: bool,
         const HHB: bool,

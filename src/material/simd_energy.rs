@@ -14,9 +14,9 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::simd::avx::{
-    bond_vectors, bond_vectors_2d, intact, lps_state, omega, phi, pmb_per_length, prefetch, sum,
+    bond_vectors_in, intact, lps_state, omega, phi, pmb_per_length, prefetch, sum,
 };
-use super::simd::{LpsLaw, NodeBonds, PmbLaw};
+use super::simd::{length, LpsLaw, NodeBonds, PmbLaw};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::damage::critical_energy::UniformCriticalEnergy;
 use crate::damage::{DamageLaw, Work};
@@ -194,8 +194,7 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
     pair: &P,
 ) -> ([f64; 3], u64) {
     let i = nb.i;
-    let own = |a: usize| if a < D { nb.current[D * i + a] } else { 0.0 };
-    let yi = [own(0), own(1), own(2)];
+    let yi = nb.position(i);
     let yi_lanes = yi.map(|c| _mm256_set1_pd(c));
     let (half, zero) = (_mm256_set1_pd(0.5), _mm256_setzero_pd());
     let (wc, volume) = (_mm256_set1_pd(energy.wc), _mm256_set1_pd(w.node.volume));
@@ -205,11 +204,7 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
     let mut broke = 0;
     let mut b = 0;
     while b + 4 <= nb.neighbors.len() {
-        let [dx, dy, dz, len] = if D == 3 {
-            bond_vectors(nb, b, yi_lanes)
-        } else {
-            bond_vectors_2d(nb, b, yi_lanes)
-        };
+        let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi_lanes);
         prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
         let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
         // Intact and of non-zero length: the bonds the generic loop records work for.
@@ -292,16 +287,10 @@ unsafe fn force_with_work<const D: usize, P: PairForce>(
             continue;
         }
         let j = nb.neighbors[b] as usize;
-        let mut d = [0.0; 3];
-        for a in 0..D {
-            d[a] = nb.current[D * j + a] - yi[a];
-        }
-        // In the lanes' order: (x² + y²) + z² in 3D.
-        let len = if D == 3 {
-            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-        } else {
-            (d[0] * d[0] + d[1] * d[1]).sqrt()
-        };
+        let y = nb.position(j);
+        let d = [y[0] - yi[0], y[1] - yi[1], y[2] - yi[2]];
+        // In the lanes' order, (x² + y²) + z² (z = 0 in 2D: the 2D length to the bit).
+        let len = length(&d);
         if len <= 0.0 {
             continue;
         }

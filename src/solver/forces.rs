@@ -222,6 +222,30 @@ fn chunk_items<'a, P>(
         .collect()
 }
 
+/// Node i's bonds (of the chunk `nodes`): their range in `bonds` and their entries in the
+/// chunk's status bytes and history words (`hw` per bond), which start at the chunk's first
+/// bond. (Inlined: once per node in both passes.)
+#[inline(always)]
+fn family_arrays<'a>(
+    bonds: &Bonds,
+    nodes: &Range<usize>,
+    i: usize,
+    hw: usize,
+    status: &'a mut [u8],
+    history: &'a mut [f64],
+) -> (Range<usize>, &'a mut [u8], &'a mut [f64]) {
+    let r = bonds.family(i);
+    let (start, end) = (
+        r.start - bonds.offsets[nodes.start],
+        r.end - bonds.offsets[nodes.start],
+    );
+    (
+        r,
+        &mut status[start..end],
+        &mut history[start * hw..end * hw],
+    )
+}
+
 /// Runs `job` on every item in parallel and returns its results in item order. The job is a
 /// trait object (one indirect call per node chunk) so that rayon's machinery is compiled once
 /// per item type instead of once per model, weight rule and damage law: `compute_with` has
@@ -450,17 +474,17 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             )
         };
         let bond_ends: Vec<usize> = self.chunks.iter().map(|c| bonds.offsets[c.end]).collect();
+        let sweep = Sweep {
+            current: &state.current,
+            positions: &body.positions,
+            no_fail,
+            weights,
+            damage,
+            bonds,
+        };
 
         if M::NEEDS_PREPASS {
             let (material, chunks) = (&self.material, &self.chunks);
-            let sweep = Sweep {
-                current: &state.current,
-                positions: &body.positions,
-                no_fail,
-                weights,
-                damage,
-                bonds,
-            };
             let arrays = (
                 &mut state.status[..],
                 &mut state.history[..],
@@ -468,12 +492,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             );
             let items = chunk_items(chunks, &bond_ends, hw, arrays);
             add(map_chunks(items, &|(nodes, status, history, points)| {
-                let base = bonds.offsets[nodes.start];
                 let mut broke = 0u64;
                 for (k, i) in nodes.clone().enumerate() {
-                    let r = bonds.family(i);
-                    let status = &mut status[r.start - base..r.end - base];
-                    let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
+                    let (r, status, history) =
+                        family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
                     if let Some(w) = &vector {
                         // Under a critical energy the pre-pass reads only the status.
                         let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0))
@@ -503,14 +525,6 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let previous_flat: &[f64] = unsafe {
             std::slice::from_raw_parts(previous.as_ptr() as *const f64, previous.len() * D)
         };
-        let sweep = Sweep {
-            current: &state.current,
-            positions: &body.positions,
-            no_fail,
-            weights,
-            damage,
-            bonds,
-        };
         // A two-pass model decided stretch-based failure in its pre-pass.
         let decide = !M::NEEDS_PREPASS;
         let arrays = (
@@ -520,12 +534,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         );
         let items = chunk_items(&self.chunks, &bond_ends, hw, arrays);
         add(map_chunks(items, &|(nodes, status, history, forces)| {
-            let base = bonds.offsets[nodes.start];
             let mut broke = 0u64;
             for (k, i) in nodes.clone().enumerate() {
-                let r = bonds.family(i);
-                let status = &mut status[r.start - base..r.end - base];
-                let history = &mut history[(r.start - base) * hw..(r.end - base) * hw];
+                let (r, status, history) =
+                    family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
                 if let Some(w) = &vector {
                     // The previous positions are empty unless a non-central model records
                     // work.
