@@ -7,13 +7,13 @@ use crate::body::Body;
 use crate::bonds::Bonds;
 use crate::deck::build::{build_constitution, build_model};
 use crate::deck::schema::Discretization;
+use crate::deck::DeckError;
 use crate::deck::LoadedDeck;
 use crate::geometry::boundary::boundary_segments;
 use crate::geometry::Shape;
 use crate::material::surface_correction::SurfaceCorrection;
 use crate::observe::vtu::{write_vtu, Field, FieldData};
 use crate::plot::damage_map::{write_scalar_map_png, MapStyle};
-use crate::run::RunError;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::Path;
@@ -140,16 +140,25 @@ pub fn shape_measure(shape: &Shape, dim: usize) -> Option<f64> {
     Some(inside as f64 * h.iter().product::<f64>())
 }
 
+/// Why `peridyn grid` wrote no grid.
+#[derive(Debug, thiserror::Error)]
+pub enum GridError {
+    #[error("{0}")]
+    Deck(#[from] DeckError),
+    #[error("writing the grid: {0}")]
+    Io(#[from] std::io::Error),
+}
+
 /// `peridyn grid`: builds the deck's grid and writes `grid.vtu` and (2D) `grid.png` into
 /// `out`.
-pub fn write_grid(ld: &LoadedDeck, out: &Path) -> Result<GridReport, RunError> {
+pub fn write_grid(ld: &LoadedDeck, out: &Path) -> Result<GridReport, GridError> {
     match ld.deck.dimension {
         2 => write_grid_dim::<2>(ld, out),
         _ => write_grid_dim::<3>(ld, out),
     }
 }
 
-fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridReport, RunError> {
+fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridReport, GridError> {
     let model = build_model::<D>(ld)?;
     let body = &model.body;
     let report = grid_report(ld, body, &model.bonds);
@@ -228,7 +237,7 @@ fn write_grid_dim<const D: usize>(ld: &LoadedDeck, out: &Path) -> Result<GridRep
                 axis_names: ["x", "y"],
             },
         )
-        .map_err(|e| RunError::Io(std::io::Error::other(e.to_string())))?;
+        .map_err(|e| GridError::Io(std::io::Error::other(e.to_string())))?;
     }
     Ok(report)
 }

@@ -13,6 +13,7 @@ pub mod checkpoint;
 pub mod counters;
 pub mod damage;
 pub mod deck;
+pub mod dimensionality;
 pub mod discretize;
 pub mod geometry;
 pub mod grid;

@@ -4,9 +4,9 @@
 use crate::checkpoint::{CheckpointError, Checkpoints, DriverState, Origin};
 use crate::damage::Damage;
 use crate::deck::build::{
-    build_constitution, build_model, settings_of, solver_settings, Constitution, MaterialChoice,
-    MaterialReport, Model, SolverSettings,
+    build_constitution, build_model, Constitution, MaterialChoice, MaterialReport, Model,
 };
+use crate::deck::solver_settings::{settings_of, solver_settings, SolverSettings};
 use crate::deck::stages::{stage_name, StagePlan, StageReport};
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
@@ -573,7 +573,7 @@ fn run_model<const D: usize, M: Material<D>>(
         None
     };
     std::fs::create_dir_all(out)
-        .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", out.display())))?;
+        .map_err(|e| crate::atomic_file::with_path(e, "cannot create directory", out))?;
     write_resolved(ld, &resolved, &report, out)?;
     if let Some(text) = pores {
         crate::atomic_file::write_atomic(&out.join("pores.txt"), text.as_bytes())?;

@@ -20,7 +20,7 @@
 
 use super::PerNode;
 use super::{DamageLaw, Work};
-use crate::material::Dimensionality;
+use crate::dimensionality::Dimensionality;
 
 /// Critical bond energy w_c (J/m⁶) per node, optionally only for bonds in tension.
 #[derive(Debug, Clone)]

@@ -11,7 +11,7 @@
 //! holds. The bond breaks, irreversibly, when s_max reaches the breaking stretch.
 
 use super::{DamageLaw, PerNode, Stretch};
-use crate::material::Dimensionality;
+use crate::dimensionality::Dimensionality;
 
 /// The shape of the force envelope beyond the peak.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,13 +1,14 @@
-//! `[contact]` and `[[impactors]]`: their deck types, their checks and their defaults, which
-//! come from the material's stiffness and the grid (documented in docs/deck.md).
+//! `[contact]` and `[[impactors]]`: their checks and their defaults, which come from the
+//! material's stiffness and the grid (documented in docs/deck.md); their deck types are in
+//! `contact_schema`.
 
+pub use super::contact_schema::{ContactDeck, ImpactorDeck, ImpactorShapeDeck};
 use super::schema::{Deck, SolverDeck};
 use super::DeckIssue;
 use crate::material::Elasticity;
 use crate::math::{vector_from_slice, Vector};
 use crate::solver::contact::{ContactSettings, NodeContact};
 use crate::solver::impactor::{Impactor, ImpactorShape, Impactors, Motion};
-use serde::{Deserialize, Serialize};
 
 /// Default contact radius r_c over the grid spacing (LAMMPS `pair peri`: 0.9 × the reference
 /// distance of nearest neighbours).
@@ -18,63 +19,6 @@ pub const STIFFNESS_FACTOR: f64 = 15.0;
 /// plate moving at 10 m/s: 0.1 Δx costs 18% of a PMB step, 0.3 Δx 7%); the nearest lattice
 /// neighbours it adds are bonded and skipped on their status byte.
 pub const SKIN_FACTOR: f64 = 0.3;
-
-/// Node–node contact between nodes that no intact bond joins.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ContactDeck {
-    /// Contact radius r_c (m); default 0.9 Δx.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius: Option<f64>,
-    /// Spring constant c_s as a multiple of the PMB micromodulus c of the body's E and ν;
-    /// default 15.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub stiffness_factor: Option<f64>,
-    /// Verlet skin of the candidate list (m); default 0.3 Δx.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub skin: Option<f64>,
-}
-
-/// An impactor's shape.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ImpactorShapeDeck {
-    Plane,
-    Sphere,
-    Cylinder,
-}
-
-/// A rigid impactor.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ImpactorDeck {
-    /// Names its history columns, `impactor_<name>_…`.
-    pub name: String,
-    pub shape: ImpactorShapeDeck,
-    /// Sphere and cylinder: centre (a point of the axis) (m).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub centre: Option<Vec<f64>>,
-    /// Sphere and cylinder: radius (m).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius: Option<f64>,
-    /// Plane: a point of the plane (m).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub point: Option<Vec<f64>>,
-    /// Plane: its normal, pointing out of the impactor towards the body (normalised).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub normal: Option<Vec<f64>>,
-    /// Plane: only nodes within this distance of `point` along the plane (a flat punch) (m).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub extent: Option<f64>,
-    /// Velocity (m/s): prescribed, or the initial one of a free impactor.
-    pub velocity: Vec<f64>,
-    /// Mass (kg): a free rigid body; absent: the velocity is prescribed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mass: Option<f64>,
-    /// Penalty constant K (N/m²) of F = K p²; default E V̄/Δx³.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub stiffness: Option<f64>,
-}
 
 fn positive(out: &mut Vec<DeckIssue>, path: &str, value: Option<f64>, what: &str) {
     if let Some(v) = value {

@@ -3,10 +3,12 @@
 
 pub mod build;
 pub mod contact;
+pub mod contact_schema;
 pub mod edit;
 pub mod grids;
 pub mod locate;
 pub mod schema;
+pub mod solver_settings;
 pub mod stages;
 pub mod study;
 pub mod validate;

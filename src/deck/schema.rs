@@ -56,10 +56,10 @@ pub struct Deck {
     pub initial_velocities: Vec<InitialVelocityDeck>,
     /// Node–node contact (`deck::contact`); absent: off, at no cost.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub contact: Option<super::contact::ContactDeck>,
+    pub contact: Option<super::contact_schema::ContactDeck>,
     /// Rigid impactors (`deck::contact`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub impactors: Vec<super::contact::ImpactorDeck>,
+    pub impactors: Vec<super::contact_schema::ImpactorDeck>,
     pub solver: SolverDeck,
     /// Further stages, run one after the other from where the deck's own stage (the keys
     /// above) left the body: e.g. a quasi-static preload, then explicit dynamics (seed 000

@@ -2,8 +2,8 @@
 //! no-fail sets) and each `[[stages]]` entry after it, with what the entry leaves out taken
 //! from the stage before (seed 000 "S + D", seed 002's preload then release).
 
-use super::build::{settings_of, SolverSettings};
 use super::schema::{BoundaryDeck, Deck, LoadDeck, SolverDeck};
+use super::solver_settings::{settings_of, SolverSettings};
 use super::DeckIssue;
 use crate::body::Body;
 use crate::loading::{BoundaryCondition, Load, Loading};

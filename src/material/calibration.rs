@@ -1,33 +1,6 @@
 //! Classical elastic constants and the dimensional settings shared by every model.
 
-use serde::{Deserialize, Serialize};
-
-/// How a body's dimension enters the constitutive constants.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Dimensionality {
-    ThreeD,
-    PlaneStress,
-    PlaneStrain,
-}
-
-impl Dimensionality {
-    /// Plain name for messages.
-    pub fn describe(self) -> &'static str {
-        match self {
-            Dimensionality::ThreeD => "3D",
-            Dimensionality::PlaneStress => "plane stress",
-            Dimensionality::PlaneStrain => "plane strain",
-        }
-    }
-
-    pub fn dim(self) -> usize {
-        match self {
-            Dimensionality::ThreeD => 3,
-            _ => 2,
-        }
-    }
-}
+pub use crate::dimensionality::Dimensionality;
 
 /// Isotropic linear elasticity (E, ν) with the derived moduli a model needs.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -2,6 +2,8 @@
 //! constant or conical micromodulus and irreversible critical-stretch failure.
 
 use super::simd::{self, NodeBonds};
+#[cfg(target_arch = "x86_64")]
+use super::{simd_damage, simd_energy};
 use super::{BondGeom, Dimensionality, Elasticity, Material};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::per_node::PerNode;
@@ -271,12 +273,34 @@ impl<const D: usize> Material<D> for Pmb {
             conical: self.profile == MicromodulusProfile::Conical,
         };
         // SAFETY: forwarded from the caller.
-        Some(unsafe { simd::pmb_force(nb, &law, w) })
+        Some(unsafe { kernel(nb, &law, w) })
     }
 
     fn elasticity(&self) -> Elasticity {
         self.elasticity
     }
+}
+
+/// PMB's kernel for the pass's damage law: softening, one critical energy, or one critical
+/// stretch.
+///
+/// # Safety
+/// As for `simd::pmb_force`; under softening or critical energy, `nb.history` as the law's
+/// kernel says.
+unsafe fn kernel(nb: &mut NodeBonds, law: &simd::PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        match (nb.softening, nb.work) {
+            (Some(soft), _) if nb.dim == 2 => {
+                simd_damage::pmb_force_softening::<2>(nb, law, w, &soft)
+            }
+            (Some(soft), _) => simd_damage::pmb_force_softening::<3>(nb, law, w, &soft),
+            (None, Some(work)) => simd_energy::pmb_force_work(nb, law, w, &work),
+            (None, None) => simd::pmb_force(nb, law, w),
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("simd::available() is false off x86-64")
 }
 
 #[cfg(test)]

@@ -248,23 +248,19 @@ impl LpsLaw {
     }
 }
 
-/// PMB force density on node i and the bonds broken.
+/// PMB force density on node i and the bonds broken, under one critical stretch (the
+/// softening and critical-energy kernels are `simd_damage` and `simd_energy`; `Pmb` picks).
 ///
 /// # Safety
 /// `available()` must be true and every neighbour index below `current.len() / 3`.
 pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
+    debug_assert!(nb.softening.is_none() && nb.work.is_none());
     #[cfg(target_arch = "x86_64")]
     {
-        match (nb.softening, nb.work) {
-            (Some(soft), _) if nb.dim == 2 => {
-                crate::material::simd_damage::pmb_force_softening::<2>(nb, law, w, &soft)
-            }
-            (Some(soft), _) => {
-                crate::material::simd_damage::pmb_force_softening::<3>(nb, law, w, &soft)
-            }
-            (None, Some(work)) => crate::material::simd_energy::pmb_force_work(nb, law, w, &work),
-            (None, None) if nb.dim == 2 => avx::pmb_force::<2>(nb, law, w),
-            (None, None) => avx::pmb_force::<3>(nb, law, w),
+        if nb.dim == 2 {
+            avx::pmb_force::<2>(nb, law, w)
+        } else {
+            avx::pmb_force::<3>(nb, law, w)
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

@@ -2,7 +2,7 @@
 //! in 3D. Each map goes to `images/<field>_step_NNNNNNNN.png`, and its latest to `<field>.png`.
 
 use super::observer::StepView;
-use super::snapshots::with_path;
+use crate::atomic_file::with_path;
 use crate::deck::schema::{MapField, MapSliceDeck, OutputDeck};
 use crate::plot::colour_range::percentile_top;
 use crate::plot::damage_map::{write_scalar_map_png, MapStyle};
@@ -32,7 +32,8 @@ impl FieldMaps {
             return Ok(None);
         }
         let images = dir.join("images");
-        std::fs::create_dir_all(&images).map_err(|e| with_path(e, &images))?;
+        std::fs::create_dir_all(&images)
+            .map_err(|e| with_path(e, "cannot create directory", &images))?;
         Ok(Some(FieldMaps {
             dir: dir.to_path_buf(),
             fields: output.maps.clone(),
@@ -112,7 +113,7 @@ impl FieldMaps {
             write_scalar_map_png(&path, &nodes.xy, &nodes.cell_sizes, &values, &style)
                 .map_err(|e| io::Error::other(e.to_string()))?;
             // The latest map, also replaced atomically.
-            let bytes = std::fs::read(&path).map_err(|e| with_path(e, &path))?;
+            let bytes = std::fs::read(&path).map_err(|e| with_path(e, "cannot read", &path))?;
             crate::atomic_file::write_atomic(&self.dir.join(format!("{name}.png")), &bytes)?;
         }
         Ok(())

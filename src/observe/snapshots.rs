@@ -4,6 +4,7 @@ use super::field_maps::FieldMaps;
 use super::observer::{Every, Observer, StepView};
 use super::pvd::PvdSeries;
 use super::vtu::{write_vtu, Field, FieldData};
+use crate::atomic_file::with_path;
 use crate::deck::schema::OutputDeck;
 use crate::math::to3;
 use std::io;
@@ -46,7 +47,7 @@ impl Snapshots {
         title: &str,
     ) -> io::Result<Self> {
         std::fs::create_dir_all(dir.join("fields"))
-            .map_err(|e| with_path(e, &dir.join("fields")))?;
+            .map_err(|e| with_path(e, "cannot create directory", &dir.join("fields")))?;
         Ok(Snapshots {
             series,
             maps: FieldMaps::new(&dir, output, title)?,
@@ -54,10 +55,6 @@ impl Snapshots {
             every: Every(every),
         })
     }
-}
-
-pub(super) fn with_path(e: io::Error, p: &std::path::Path) -> io::Error {
-    io::Error::new(e.kind(), format!("{}: {e}", p.display()))
 }
 
 impl<const D: usize> Observer<D> for Snapshots {
