@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use peridyn::deck::study::LoadedStudy;
 use peridyn::deck::LoadedDeck;
-use peridyn::run::{check, run_with, RunControl, RunOptions};
+use peridyn::run::{check_timed, run_with, RunControl, RunOptions};
 use peridyn::study_run::{plan_study, run_study, StudyOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -169,8 +169,11 @@ fn main() -> ExitCode {
                 return check_study(&deck, threads);
             }
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
-            let report = check(&ld, threads).map_err(|e| e.to_string())?;
+            let (report, time) = check_timed(&ld, threads).map_err(|e| e.to_string())?;
             println!("{}: deck is valid\n{report}", deck.display());
+            if let Some(time) = time {
+                println!("{time}");
+            }
             Ok(())
         })(),
         Command::Grid { deck, output } => (|| {

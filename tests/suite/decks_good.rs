@@ -291,3 +291,28 @@ fn grid_writes_the_nodes_and_reports_the_spacing_and_area() {
     assert!(std::fs::metadata(out.join("grid.png")).unwrap().len() > 10_000);
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// `peridyn check`'s time estimate: a single-stage explicit run gets one, from three timed
+/// steps at the deck's time step, for the deck's step count; a quasi-static run (whose load
+/// steps take as many iterations as equilibrium needs) and a staged run get none.
+#[test]
+fn check_times_the_steps_of_an_explicit_run_only() {
+    let checked = |name: &str| {
+        let ld = LoadedDeck::from_file(&root().join("examples").join(name)).unwrap();
+        peridyn::run::check_timed(&ld, Some(1)).unwrap_or_else(|e| panic!("{name}: {e}"))
+    };
+    let (report, time) = checked("dual_horizon.toml");
+    let time = time.expect("an explicit run is timed");
+    assert_eq!(time.steps, report.steps);
+    assert_eq!(time.timed_steps, 3);
+    assert!(time.seconds_per_step.is_finite() && time.seconds_per_step > 0.0);
+    let shown = time.to_string();
+    assert!(
+        shown.contains(&format!("{} steps", report.steps)),
+        "{shown}"
+    );
+    for name in ["quasi_static_tension.toml", "seed002_preload_release.toml"] {
+        let (report, time) = checked(name);
+        assert!(time.is_none(), "{name}: {} timed", report.solver);
+    }
+}
