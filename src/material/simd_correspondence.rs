@@ -533,8 +533,10 @@ mod avx {
         let s0 = nb.s0.unwrap_or(f64::INFINITY);
         let near = _mm256_set1_pd((1.0 + s0) * (1.0 + s0) * (1.0 - 1e-12));
         let s0 = _mm256_set1_pd(s0);
-        // Bit b: bond b carries force (meaningful for families of up to `KEPT_BITS` bonds).
+        // Bit b: bond b carries force (meaningful for families of up to `KEPT_BITS` bonds),
+        // gathered 64 bonds at a time in `word` (a register; `kept`, indexed by b, is memory).
         let mut kept = [0u64; 4];
+        let mut word = 0u64;
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
@@ -543,12 +545,17 @@ mod avx {
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = keep_lanes!(DECIDE, nb, b, &d, l, s0, near, broke);
-            kept[(b / 64) & 3] |= (_mm256_movemask_pd(keep) as u64) << (b % 64);
+            word |= (_mm256_movemask_pd(keep) as u64) << (b % 64);
+            if b % 64 == 60 {
+                kept[(b / 64) & 3] = word;
+                word = 0;
+            }
             let s = weight::<HHB, INVERSE>(law, w, l, keep);
             let xi = rows::<D>(reference, j, &xi_i);
-            // K += (ξ s) ξᵀ, N += (η s) ξᵀ (the generic `accumulate`, fused).
+            // K += (ξ s) ξᵀ, N += η (ξ s)ᵀ (the generic `accumulate`, fused, with s on ξ:
+            // η, ξ s and N are then all that is live, and N's nine sums stay in registers).
+            let xs: [__m256d; D] = std::array::from_fn(|a| _mm256_mul_pd(xi[a], s));
             if WITH_K {
-                let xs: [__m256d; D] = std::array::from_fn(|a| _mm256_mul_pd(xi[a], s));
                 for (e, (r, c)) in lower::<D>().enumerate() {
                     k[e] = _mm256_fmadd_pd(xs[r], xi[c], k[e]);
                 }
@@ -557,13 +564,14 @@ mod avx {
                 }
             }
             for r in 0..D {
-                let es = _mm256_mul_pd(_mm256_sub_pd(d[r], xi[r]), s);
+                let eta = _mm256_sub_pd(d[r], xi[r]);
                 for c in 0..D {
-                    n[D * c + r] = _mm256_fmadd_pd(es, xi[c], n[D * c + r]);
+                    n[D * c + r] = _mm256_fmadd_pd(eta, xs[c], n[D * c + r]);
                 }
             }
             b += 4;
         }
+        kept[(b / 64) & 3] |= word;
         let mut ks = [0.0; 9];
         for (e, (r, c)) in lower::<D>().enumerate() {
             let v = sum(k[e]);
@@ -581,16 +589,16 @@ mod avx {
             kept[(b / 64) & 3] |= 1 << (b % 64);
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
             let xi = law.xi::<D>(i, j);
+            let xs: [f64; 3] = std::array::from_fn(|a| xi[a] * s);
             for r in 0..D {
-                let (xs, es) = (xi[r] * s, (d[r] - xi[r]) * s);
                 if WITH_K {
-                    sx[r] += xs;
+                    sx[r] += xs[r];
                 }
                 for c in 0..D {
                     if WITH_K {
-                        ks[D * c + r] += xs * xi[c];
+                        ks[D * c + r] += xs[r] * xi[c];
                     }
-                    ns[D * c + r] += es * xi[c];
+                    ns[D * c + r] += (d[r] - xi[r]) * xs[c];
                 }
             }
         });
