@@ -130,12 +130,10 @@ impl<'a> NodeBonds<'a> {
         }
     }
 
-    /// Node k's current position, z = 0 in 2D (so that a 3D length, (x² + y²) + z², is the
-    /// 2D one to the bit).
+    /// Node k's current position, z = 0 in 2D (`flat_position`).
     #[inline(always)]
     pub fn position(&self, k: usize) -> [f64; 3] {
-        let c = &self.current[self.dim * k..self.dim * k + self.dim];
-        [c[0], c[1], if self.dim == 3 { c[2] } else { 0.0 }]
+        flat_position(self.current, self.dim, k)
     }
 
     /// The same family under a uniform critical-energy law with its work records (none for a
@@ -248,11 +246,19 @@ impl LpsLaw {
     }
 }
 
+/// Node k's position in positions stored flat, `dim` (2 or 3) per node, with z = 0 in 2D (so
+/// that a 3D length, (x² + y²) + z², is the 2D one to the bit).
+#[inline(always)]
+pub(crate) fn flat_position(flat: &[f64], dim: usize, k: usize) -> [f64; 3] {
+    let c = &flat[dim * k..dim * k + dim];
+    [c[0], c[1], if dim == 3 { c[2] } else { 0.0 }]
+}
+
 /// PMB force density on node i and the bonds broken, under one critical stretch (the
 /// softening and critical-energy kernels are `simd_damage` and `simd_energy`; `Pmb` picks).
 ///
 /// # Safety
-/// `available()` must be true and every neighbour index below `current.len() / 3`.
+/// `available()` must be true and every neighbour index below `current.len() / nb.dim`.
 pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) -> ([f64; 3], u64) {
     debug_assert!(nb.softening.is_none() && nb.work.is_none());
     #[cfg(target_arch = "x86_64")]

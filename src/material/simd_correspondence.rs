@@ -24,7 +24,7 @@
 //! are D lanes, matrices D×D column-major; in 2D the sums returned and the scalar tails pad
 //! the third component with zero.
 
-use super::simd::NodeBonds;
+use super::simd::{flat_position, NodeBonds};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::PartialVolume;
 use crate::damage::critical_energy::UniformCriticalEnergy;
@@ -55,14 +55,11 @@ impl CorrespondenceLaw<'_> {
     /// Reference bond vector ξ = x_j − x_i in dimension D, z = 0 in 2D.
     #[inline(always)]
     fn xi<const D: usize>(&self, i: usize, j: usize) -> [f64; 3] {
-        let r = self.reference;
-        std::array::from_fn(|a| {
-            if a < D {
-                r[D * j + a] - r[D * i + a]
-            } else {
-                0.0
-            }
-        })
+        let (xj, xi) = (
+            flat_position(self.reference, D, j),
+            flat_position(self.reference, D, i),
+        );
+        std::array::from_fn(|a| xj[a] - xi[a])
     }
 }
 
@@ -877,10 +874,7 @@ mod avx {
             f[a] = sum(acc[a]);
         }
         let pts = |k: usize| &points[k * stride..k * stride + 2 * D * D];
-        // Node k's position in the flat `v` (D per node), z = 0 in 2D.
-        let at = |v: &[f64], k: usize| -> [f64; 3] {
-            std::array::from_fn(|a| if a < D { v[D * k + a] } else { 0.0 })
-        };
+        let at = |v: &[f64], k: usize| flat_position(v, D, k);
         for b in b..nb.neighbors.len() {
             if nb.status[b] != INTACT {
                 continue;
