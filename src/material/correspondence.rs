@@ -21,8 +21,10 @@
 //! its neighbours' halves of its bonds still act on it. At set-up, with every bond intact,
 //! such a node is an error that names it.
 
+use super::simd::tail;
 use super::simd::NodeBonds;
-use super::simd_correspondence::{self, CorrespondenceLaw};
+use super::simd_correspondence::{self, CorrespondenceLaw, MOMENT_WORDS};
+use super::stabilisation_memo::{StabilisationMemo, MEMO_WORDS};
 use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
@@ -30,6 +32,20 @@ use crate::bonds::{Bonds, Quadrature};
 use crate::math::{determinant, inverse, Vector};
 use crate::per_node::PerNode;
 use nalgebra::{SMatrix, SVector};
+
+/// The (row, column) entries of a symmetric D×D matrix's lower triangle, column by column.
+fn lower<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
+    (0..D).flat_map(|c| (c..D).map(move |r| (r, c)))
+}
+
+/// The symmetric D×D matrix of a lower triangle given in the order of `lower`.
+fn symmetric<const D: usize>(lower_triangle: &[f64]) -> SMatrix<f64, D, D> {
+    let mut m = SMatrix::<f64, D, D>::zeros();
+    for (&v, (r, c)) in lower_triangle.iter().zip(lower::<D>()) {
+        (m[(r, c)], m[(c, r)]) = (v, v);
+    }
+    m
+}
 
 /// Zero-energy-mode control.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,10 +78,11 @@ const SINGULAR: f64 = 1e-8;
 /// state and no energy of its own.
 ///
 /// With B, a half is ω (A ξ + C1 z) = ω (B ξ + C1 η) since z = Y − F ξ = η − H ξ (Eq. 14): the
-/// force pass needs no z per bond and reads only B and C1, which come first (`repr(C)`),
-/// followed by the node's positions (vector pre-pass): all the vector force pass reads of a
-/// neighbour, in the first three cache lines of a 64-byte-aligned record. H is kept for the
-/// energy (W of E(H), and z for the stabilisation energy).
+/// force pass needs no z per bond and reads only B and C1. The vector force pass under a
+/// critical stretch reads of a neighbour only its moment record (`moments`, the first two
+/// cache lines of the 64-byte-aligned record in 3D); under a critical energy, the block of B,
+/// C1 and both positions after it. H is kept for the energy (W of E(H), and z for the
+/// stabilisation energy).
 ///
 /// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
 /// round-off, which left a spurious stress of order ε_machine·E in the reference state and a
@@ -78,64 +95,73 @@ const SINGULAR: f64 = 1e-8;
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 pub struct CorrespondencePoint<const D: usize> {
-    pub b: SMatrix<f64, D, D>,
-    pub c1: SMatrix<f64, D, D>,
-    /// The node's current and reference positions (vector pre-pass only): the force kernels
-    /// read all they need of a neighbour, B, C1 and both positions, from its record.
-    pub y: SVector<f64, D>,
-    pub x: SVector<f64, D>,
-    pub h: SMatrix<f64, D, D>,
-    /// K⁻¹ of the bonds in `kept` (vector pre-pass only; C1 is its function too).
-    pub shape_inverse: SMatrix<f64, D, D>,
-    /// Σ s ξ over the bonds of `kept`, which depends on them only, as K.
-    pub shape_xi: SVector<f64, D>,
+    /// The node's moment record (vector pre-pass only; `simd_correspondence::moment_*`):
+    /// B, g = B (x − o) + C1 (y − x), y − x and the version of C1, whose weighted sums over a
+    /// family give the vector force pass the other halves (see `vector_force`). It comes
+    /// first: the lines its neighbours read hold the node's own B and y − x too.
+    pub moments: [f64; MOMENT_WORDS],
     /// Bit b: bond b of the family carried force when `shape_inverse` was computed.
     pub kept: [u64; 4],
     /// The number of bonds of the family `kept` describes; 0: no reusable K. (A u64, not an
     /// `Option`, so that the point state is f64-sized words with no padding: the force
     /// kernels read it as a slice of f64.)
     pub kept_of: u64,
-    /// Explicit padding to the 64-byte alignment (4D² + 3D + 5 words above, D + 3 here: a
+    /// Σ s ξ over the bonds of `kept`, which depends on them only, as K (z = 0 in 2D). With
+    /// `kept` and `kept_of`, one cache line: what the vector force pass reads of the node
+    /// itself besides its moment record.
+    pub shape_xi: [f64; 3],
+    pub b: SMatrix<f64, D, D>,
+    pub c1: SMatrix<f64, D, D>,
+    /// The node's current and reference positions (vector pre-pass only): with B and C1
+    /// before them, all the critical-energy force kernel reads of a neighbour.
+    pub y: SVector<f64, D>,
+    pub x: SVector<f64, D>,
+    pub h: SMatrix<f64, D, D>,
+    /// K⁻¹ of the bonds in `kept` (vector pre-pass only; C1 is its function too).
+    pub shape_inverse: SMatrix<f64, D, D>,
+    /// Explicit padding to the 64-byte alignment (24 + 4D² + 2D words above, 2D here: a
     /// multiple of eight words for D = 2 and 3), so that no byte of the record is undefined.
-    pad_d: SVector<f64, D>,
-    pad: [u64; 3],
+    pad: [SVector<f64, D>; 2],
 }
 
 // The force kernels' view of the record, in 2D and 3D.
 const _: () = {
-    use simd_correspondence::{record_c1, record_read, record_x, record_y};
+    use simd_correspondence::{
+        record_block, record_c1, record_moments, record_read, record_x, record_y,
+    };
     use std::mem::{offset_of, size_of};
     macro_rules! check_record {
         ($d:literal) => {{
             type Record = CorrespondencePoint<$d>;
-            assert!(offset_of!(Record, b) == 0);
-            assert!(offset_of!(Record, c1) == 8 * record_c1($d));
-            assert!(offset_of!(Record, y) == 8 * record_y($d));
-            assert!(offset_of!(Record, x) == 8 * record_x($d));
-            assert!(size_of::<Record>() >= 8 * record_read($d));
+            assert!(offset_of!(Record, moments) == 8 * record_moments($d));
+            assert!(offset_of!(Record, b) == 8 * record_block($d));
+            assert!(offset_of!(Record, c1) == 8 * (record_block($d) + record_c1($d)));
+            assert!(offset_of!(Record, y) == 8 * (record_block($d) + record_y($d)));
+            assert!(offset_of!(Record, x) == 8 * (record_block($d) + record_x($d)));
+            assert!(size_of::<Record>() >= 8 * (record_block($d) + record_read($d)));
         }};
     }
     check_record!(2);
     check_record!(3);
     // No implicit padding (see `pad`): the record is read as a slice of f64.
-    assert!(size_of::<CorrespondencePoint<3>>() == 8 * 56);
-    assert!(size_of::<CorrespondencePoint<2>>() == 8 * 32);
+    assert!(size_of::<CorrespondencePoint<3>>() == 8 * 72);
+    assert!(size_of::<CorrespondencePoint<2>>() == 8 * 48);
 };
 
 impl<const D: usize> Default for CorrespondencePoint<D> {
     fn default() -> Self {
         CorrespondencePoint {
+            moments: [0.0; MOMENT_WORDS],
+            kept: [0; 4],
+            kept_of: 0,
+            shape_xi: [0.0; 3],
             b: SMatrix::zeros(),
             c1: SMatrix::zeros(),
             y: SVector::zeros(),
             x: SVector::zeros(),
             h: SMatrix::zeros(),
             shape_inverse: SMatrix::zeros(),
-            shape_xi: SVector::zeros(),
-            kept: [0; 4],
-            kept_of: 0,
-            pad_d: SVector::zeros(),
-            pad: [0; 3],
+            pad: [SVector::zeros(); 2],
         }
     }
 }
@@ -157,6 +183,11 @@ pub struct Correspondence {
     mu: f64,
     /// Reference positions, flat (filled by `setup`; read by the vector kernels).
     reference: Vec<f64>,
+    /// The centre o of the reference positions' bounding box (`setup`): the moment records
+    /// hold B (x − o), whose round-off grows with |x − o| (see `vector_force`).
+    origin: [f64; 3],
+    /// The vector force pass's sums over C1s (`setup` sizes it).
+    memo: StabilisationMemo,
 }
 
 impl Correspondence {
@@ -186,6 +217,8 @@ impl Correspondence {
             lambda: elasticity.in_plane_bulk() - 2.0 * mu / dim,
             mu,
             reference: Vec::new(),
+            origin: [0.0; 3],
+            memo: StabilisationMemo::new(0),
         }
     }
 
@@ -338,6 +371,79 @@ impl Correspondence {
         (y - xi) - p.h * xi
     }
 
+    /// Node i's moment record (`simd_correspondence::moment_*`) from its point state and
+    /// the version of its C1: B, g = B x̂ + C1 u, u, with x̂ = x − o and u = y − x.
+    fn moment_record<const D: usize>(
+        &self,
+        i: usize,
+        p: &CorrespondencePoint<D>,
+        version: f64,
+    ) -> [f64; MOMENT_WORDS] {
+        use simd_correspondence::{moment_g, moment_u, moment_version};
+        let u = p.y - p.x;
+        let g = p.b * self.x_hat::<D>(i) + p.c1 * u;
+        let mut m = [0.0; MOMENT_WORDS];
+        m[..D * D].copy_from_slice(p.b.as_slice());
+        m[moment_g(D)..moment_g(D) + D].copy_from_slice(g.as_slice());
+        m[moment_u(D)..moment_u(D) + D].copy_from_slice(u.as_slice());
+        m[moment_version(D)] = version;
+        m
+    }
+
+    /// Node i's reference position less the origin o, x̂ = x − o.
+    fn x_hat<const D: usize>(&self, i: usize) -> Vector<D> {
+        Vector::<D>::from_fn(|a, _| self.reference[D * i + a] - self.origin[a])
+    }
+
+    /// Node i's memo (`StabilisationMemo`): W = Σ s C1_j over its bonds that carry force
+    /// (intact, |y| > 0, as the pre-pass decided), its own C1 and S = Σ s.
+    fn stabilisation_sums<const D: usize>(
+        &self,
+        nb: &mut NodeBonds,
+        law: &CorrespondenceLaw,
+        w: &UniformWeights,
+        points: &[CorrespondencePoint<D>],
+    ) -> [f64; MEMO_WORDS] {
+        let mut memo = [0.0; MEMO_WORDS];
+        tail(nb, 0, |_, j, l, _, _| {
+            let s = law.omega(l) * (w.phi(l) * w.node.volume);
+            for (e, (r, c)) in lower::<D>().enumerate() {
+                memo[e] += s * points[j].c1[(r, c)];
+            }
+            memo[12] += s;
+        });
+        for (e, (r, c)) in lower::<D>().enumerate() {
+            memo[6 + e] = points[nb.i].c1[(r, c)];
+        }
+        memo
+    }
+
+    /// Node i's force density from the moment sums M = Σ s m_j over its bonds
+    /// (`correspondence_moments`), its memo and its own record, with ξ = x̂_j − x̂_i and
+    /// η = u_j − u_i: the other halves Σ s (B_j ξ + C1_j η) = Σ s g_j − (Σ s B_j) x̂_i − W u_i
+    /// and its own halves B_i Σ s ξ + C1_i Σ s η with Σ s η = Σ s u_j − S u_i.
+    ///
+    /// The same sums as the bond-by-bond loop's, regrouped: the round-off of the other
+    /// halves grows from ε |B| |ξ| to ε |B| |x − o| per bond term, by the body's half-size
+    /// over the horizon (10⁻¹³ of a bond's force at 1000 horizons across).
+    fn moment_force<const D: usize>(
+        &self,
+        i: usize,
+        m: &[f64; MOMENT_WORDS],
+        memo: &[f64; MEMO_WORDS],
+        pi: &CorrespondencePoint<D>,
+    ) -> Vector<D> {
+        use simd_correspondence::{moment_g, moment_u};
+        let at = |m: &[f64], k: usize| Vector::<D>::from_column_slice(&m[k..k + D]);
+        let u = at(&pi.moments, moment_u(D));
+        let (w, c1) = (symmetric::<D>(&memo[..6]), symmetric::<D>(&memo[6..12]));
+        let sum_b = SMatrix::<f64, D, D>::from_column_slice(&m[..D * D]);
+        let other = at(m, moment_g(D)) - sum_b * self.x_hat::<D>(i) - w * u;
+        let sum_eta = at(m, moment_u(D)) - u * memo[12];
+        let b = SMatrix::<f64, D, D>::from_column_slice(&pi.moments[..D * D]);
+        other + b * at(&pi.shape_xi, 0) + c1 * sum_eta
+    }
+
     /// The set-up check: with every bond intact, the shape tensor of each node that
     /// satisfies `member` must be invertible; the first that is not is named.
     pub fn check_shape_tensors<const D: usize>(
@@ -391,6 +497,18 @@ impl<const D: usize> Material<D> for Correspondence {
             .iter()
             .flat_map(|x| x.iter().copied())
             .collect();
+        self.origin = std::array::from_fn(|a| {
+            let coordinate = body.positions.iter().filter_map(|x| x.get(a).copied());
+            let (low, high) = coordinate.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), c| {
+                (l.min(c), h.max(c))
+            });
+            if low <= high {
+                0.5 * (low + high)
+            } else {
+                0.0
+            }
+        });
+        self.memo = StabilisationMemo::new(body.len());
         self.check_shape_tensors(body, bonds, quad, |_| true)
     }
 
@@ -476,7 +594,8 @@ impl<const D: usize> Material<D> for Correspondence {
 
     /// N on four bonds at a time (`simd_correspondence`) and the node's B and H (`deformed`),
     /// written over its previous point state; K, K⁻¹, C1 and Σ s ξ too unless the family
-    /// carries force through exactly the bonds (`kept`) they were computed for.
+    /// carries force through exactly the bonds (`kept`) they were computed for, and then C1
+    /// takes a new version (`StabilisationMemo`). Last, the moment record.
     unsafe fn vector_prepass(
         &self,
         nb: &mut NodeBonds,
@@ -507,43 +626,61 @@ impl<const D: usize> Material<D> for Correspondence {
         };
         let reuse =
             matches!(sums.kept, Some(kept) if point.kept_of == family && point.kept == kept);
-        if !reuse {
-            let again;
-            let (k, sum_xi) = if large {
-                (&sums.k, &sums.sum_xi)
-            } else {
-                // The status is now decided: this pass breaks nothing and sums the same N.
-                let s0 = nb.s0.take();
-                // SAFETY: as above.
-                again = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, true) };
-                nb.s0 = s0;
-                (&again.k, &again.sum_xi)
-            };
-            let Some(k_inv) = Self::shape_inverse(&SMatrix::from_column_slice(&k[..D * D])) else {
-                detach(point);
-                return Some(sums.broke);
-            };
-            point.shape_inverse = k_inv;
-            point.c1 = self.stabilisation(i, &k_inv);
-            point.shape_xi = vector(sum_xi);
-            point.kept = sums.kept.unwrap_or_default();
-            point.kept_of = if sums.kept.is_some() { family } else { 0 };
-        }
-        match self.deformed(
-            &point.shape_inverse,
-            &point.c1,
-            &SMatrix::from_column_slice(&sums.n[..D * D]),
-        ) {
-            Some((b, h)) => (point.b, point.h) = (b, h),
-            None => detach(point),
-        }
+        let version = point.moments[simd_correspondence::moment_version(D)];
+        // Whether C1 changed (a new K, or detached): then it takes a new version.
+        let changed = 'update: {
+            if !reuse {
+                let again;
+                let (k, sum_xi) = if large {
+                    (&sums.k, &sums.sum_xi)
+                } else {
+                    // The status is now decided: this pass breaks nothing and sums the same N.
+                    let s0 = nb.s0.take();
+                    // SAFETY: as above.
+                    again = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, true) };
+                    nb.s0 = s0;
+                    (&again.k, &again.sum_xi)
+                };
+                let Some(k_inv) = Self::shape_inverse(&SMatrix::from_column_slice(&k[..D * D]))
+                else {
+                    detach(point);
+                    break 'update true;
+                };
+                point.shape_inverse = k_inv;
+                point.c1 = self.stabilisation(i, &k_inv);
+                point.shape_xi = *sum_xi;
+                point.kept = sums.kept.unwrap_or_default();
+                point.kept_of = if sums.kept.is_some() { family } else { 0 };
+            }
+            match self.deformed(
+                &point.shape_inverse,
+                &point.c1,
+                &SMatrix::from_column_slice(&sums.n[..D * D]),
+            ) {
+                Some((b, h)) => {
+                    (point.b, point.h) = (b, h);
+                    !reuse
+                }
+                None => {
+                    detach(point);
+                    true
+                }
+            }
+        };
+        let version = if changed {
+            self.memo.next_version()
+        } else {
+            version
+        };
+        point.moments = self.moment_record(i, point, version);
         Some(sums.broke)
     }
 
-    /// The other halves and the own-half sums on four bonds at a time, then
-    /// `own_half_force`, as the engine's factored loop; under a uniform critical-energy law
-    /// (`nb.work`) both halves of each bond with its work record, as the engine's loop for
-    /// laws that decide on work.
+    /// The neighbours' moment records summed on four bonds at a time, the memo of the C1 sums
+    /// (summed again when a version changed), then `moment_force`: the engine's factored loop
+    /// with the other halves regrouped. Under a uniform critical-energy law (`nb.work`) both
+    /// halves of each bond with its work record, as the engine's loop for laws that decide on
+    /// work.
     unsafe fn vector_force(
         &self,
         nb: &mut NodeBonds,
@@ -568,16 +705,30 @@ impl<const D: usize> Material<D> for Correspondence {
                 simd_correspondence::correspondence_force_work(nb, &law, w, &energy, flat, stride)
             });
         }
+        let (i, pi) = (nb.i, &points[nb.i]);
+        // What only the next node's own force pass reads: a line of its record, its memo.
+        if let Some(next) = points.get(i + 1) {
+            simd_correspondence::prefetch(&next.kept);
+            self.memo.prefetch(i + 1);
+        }
+        // The bonds that carry force, as the pre-pass found them, when it kept them.
+        let kept = (pi.kept_of == nb.neighbors.len() as u64).then_some(&pi.kept);
         // SAFETY: forwarded from the caller; the points are this evaluation's, from
-        // `vector_prepass` (which runs whenever this does: the same `kernel_law`).
-        let (other, sum_eta) =
-            unsafe { simd_correspondence::correspondence_force(nb, &law, w, flat, stride) };
-        let pi = &points[nb.i];
-        let own = self.linear_half(pi, &pi.shape_xi, &Vector::<D>::from_fn(|a, _| sum_eta[a]));
-        Some((
-            std::array::from_fn(|a| if a < D { other[a] + own[a] } else { 0.0 }),
-            0,
-        ))
+        // `vector_prepass` (which runs whenever this does: the same `kernel_law`), and
+        // `kept` is its set of bonds.
+        let (m, versions) =
+            unsafe { simd_correspondence::correspondence_moments(nb, &law, w, flat, stride, kept) };
+        let key = [versions, pi.moments[simd_correspondence::moment_version(D)]];
+        let memo = match self.memo.get(i, key) {
+            Some(memo) => memo,
+            None => {
+                let memo = self.stabilisation_sums::<D>(nb, &law, w, points);
+                self.memo.set(i, key, &memo);
+                memo
+            }
+        };
+        let f = self.moment_force::<D>(i, &m, &memo, pi);
+        Some((std::array::from_fn(|a| if a < D { f[a] } else { 0.0 }), 0))
     }
 
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S

@@ -19,6 +19,7 @@ pub mod simd;
 pub mod simd_correspondence;
 pub mod simd_damage;
 pub mod simd_energy;
+pub mod stabilisation_memo;
 pub mod surface_correction;
 
 pub use calibration::{Dimensionality, Elasticity};

@@ -1,8 +1,10 @@
 //! AVX2 + FMA bond loops of the correspondence model (2D and 3D, uniform grid, one horizon),
 //! four bonds at a time: the pre-pass sums N = Σ ω η⊗ξ w and, when the caller cannot reuse it
 //! (`Sums::kept`), K = Σ ω ξ⊗ξ w (seed 004, Eqs. 6–7);
-//! the force pass under one critical stretch sums the other halves ω φ V (B_j ξ + C1_j η) and
-//! the own-half sums Σ s ξ, Σ s η (see `Correspondence` and `Material::FACTORED_OWN_HALF`);
+//! the force pass under one critical stretch sums the neighbours' moment records s m_j
+//! (`moment_*`: B, g, u and C1's version), from which the model forms the other halves
+//! ω φ V (B_j ξ + C1_j η) and the own-half sum Σ s η without a product per bond (see
+//! `Correspondence::vector_force` and `Material::FACTORED_OWN_HALF`);
 //! the force pass under one critical energy evaluates both halves of each bond,
 //! T = ω φ (B_i ξ + C1_i η) + ω φ (B_j ξ + C1_j η) (Eq. 8 with Eq. 14 through B = A − C1 H),
 //! records its work w += ½ (T_prev + T)·Δη in the bond's vector work record [w, T] (Foster,
@@ -11,18 +13,20 @@
 //!
 //! Same terms, failure rules and partial-volume factor as the generic loops; the sums of
 //! products are fused multiply–adds (one rounding instead of two), and the order of a node's
-//! bond terms is four lanes, then the tail. Both are fixed, so results stay bitwise identical
-//! for any thread count; they differ from the generic loop by round-off (10⁻¹⁴ of the forces),
-//! and the quantities that decide failure (|y|, the stretch, the work update from the pair
-//! force) are computed in the generic loop's order. The kernels run only where the CPU has
-//! both AVX2 and FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the
-//! generic loop.
+//! bond terms is four lanes (two sets of sums, even and odd lanes, in the moment pass), then
+//! the tail. Both are fixed, so results stay bitwise identical for any thread count; they
+//! differ from the generic loop by round-off (10⁻¹⁴ of the forces; the moment form's grows
+//! with the body's size over the horizon, see `Correspondence::moment_force`), and the
+//! quantities that decide failure (|y|, the stretch, the work update from the pair force) are
+//! computed in the generic loop's order. The kernels run only where the CPU has both AVX2 and
+//! FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the generic loop.
 //!
-//! Loads: a neighbour's position, B and C1 are read as 128-bit pairs, two bonds per 256-bit
-//! register, and interleaved with in-lane unpacks (no lane-crossing shuffle, never a byte past
-//! a node's record). The kernels are generic over the dimension D (`NodeBonds::dim`): vectors
-//! are D lanes, matrices D×D column-major; in 2D the sums returned and the scalar tails pad
-//! the third component with zero.
+//! Loads: the moment pass reads each neighbour's record as whole 256-bit rows (two cache
+//! lines in 3D); the pre-pass and the critical-energy pass read positions, B and C1 as
+//! 128-bit pairs, two bonds per 256-bit register, interleaved with in-lane unpacks (no
+//! lane-crossing shuffle, never a byte past a node's record). The kernels are generic over
+//! the dimension D (`NodeBonds::dim`): vectors are D lanes, matrices D×D column-major; in 2D
+//! the sums returned and the scalar tails pad the third component with zero.
 
 use super::simd::{flat_position, NodeBonds};
 use crate::bonds::partial_volume::UniformWeights;
@@ -44,7 +48,7 @@ pub struct CorrespondenceLaw<'a> {
 
 impl CorrespondenceLaw<'_> {
     #[inline(always)]
-    fn omega(&self, l: f64) -> f64 {
+    pub fn omega(&self, l: f64) -> f64 {
         if self.inverse_influence {
             self.horizon / l
         } else {
@@ -64,9 +68,15 @@ impl CorrespondenceLaw<'_> {
 }
 
 /// Where the force kernels find a node's entries in its point record of dimension `d` (in f64
-/// words; the layout of `CorrespondencePoint`, checked against these at compile time): B
-/// column-major from 0, C1 from `record_c1`, the current position from `record_y`, the
-/// reference position from `record_x`. The kernels read up to word `record_read` (exclusive).
+/// words; the layout of `CorrespondencePoint`, checked against these at compile time).
+///
+/// The critical-energy force kernel reads a block from word `record_block` on: B
+/// column-major from its start, C1 from `record_c1`, the current position from `record_y`,
+/// the reference position from `record_x`, up to `record_read` (exclusive; all four relative
+/// to the block).
+pub const fn record_block(_d: usize) -> usize {
+    MOMENT_WORDS + 8
+}
 pub const fn record_c1(d: usize) -> usize {
     d * d
 }
@@ -78,6 +88,44 @@ pub const fn record_x(d: usize) -> usize {
 }
 pub const fn record_read(d: usize) -> usize {
     2 * d * d + 2 * d
+}
+
+/// The force kernel under a critical stretch reads a neighbour's moment record, from word
+/// `record_moments(d)` of its point record (64-byte aligned): B (d² words, column-major) from
+/// 0, g = B (x − o) + C1 u from `moment_g`, u = y − x from `moment_u`, the version of the
+/// node's C1 at `moment_version`, zero up to `moment_words`; o is the model's `origin`.
+/// Σ s m_j over a family and Σ of the versions give the other halves (see
+/// `correspondence_moments`). Two cache lines in 3D, one and a half in 2D: C1 itself, which
+/// changes only with K, is not in it.
+pub const fn record_moments(_d: usize) -> usize {
+    0
+}
+pub const fn moment_g(d: usize) -> usize {
+    d * d
+}
+pub const fn moment_u(d: usize) -> usize {
+    d * d + d
+}
+pub const fn moment_version(d: usize) -> usize {
+    d * d + 2 * d
+}
+/// Whole 256-bit rows: 16 words in 3D, 12 in 2D.
+pub const fn moment_words(d: usize) -> usize {
+    (moment_version(d) + 1).next_multiple_of(4)
+}
+/// The moment record's room in a point record, for either dimension.
+pub const MOMENT_WORDS: usize = moment_words(3);
+
+/// Asks for the cache line that holds `value` (a hint: no effect on results).
+#[inline(always)]
+pub fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing; SSE is part of x86-64.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            value as *const T as *const i8,
+        )
+    }
 }
 
 /// Families of up to this many bonds get `Sums::kept`.
@@ -131,41 +179,47 @@ pub unsafe fn correspondence_sums(
     unreachable!("fma_available() is false off x86-64")
 }
 
-/// Force pass of node i: the sum of the other halves ω φ V (B_j ξ + C1_j η) over its intact
-/// bonds; `points` holds each node's point state as `stride` f64 laid out as the `record_*`
-/// offsets say, from this evaluation's pre-pass (C1 symmetric: the kernels read its lower
-/// triangle).
+/// Force pass of node i: the moment sums Σ s m_j over the bonds that carry force, m_j node
+/// j's moment record (`moment_*`) and s = ω φ V the bond's weight, and the sum of the
+/// neighbours' versions (every bond of the groups of four, the tail's that carry force; exact:
+/// whole numbers below 2⁵³). From them the model forms the other halves
+/// Σ s (B_j ξ + C1_j η) without a product per bond (see `Correspondence::vector_force`).
+/// `points` holds each node's point state as `stride` f64, the records from this evaluation's
+/// pre-pass; `kept`, when given, is node i's set of bonds that carry force from that pre-pass
+/// (`Sums::kept`), which spares reading the neighbours' positions.
 ///
 /// # Safety
 /// As for `correspondence_sums`; `points.len() >= stride * nodes` and
-/// `stride >= record_read(nb.dim)`.
-pub unsafe fn correspondence_force(
+/// `stride >= record_moments(nb.dim) + moment_words(nb.dim)`.
+pub unsafe fn correspondence_moments(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
     w: &UniformWeights,
     points: &[f64],
     stride: usize,
-) -> ([f64; 3], [f64; 3]) {
+    kept: Option<&[u64; 4]>,
+) -> ([f64; MOMENT_WORDS], f64) {
     #[cfg(target_arch = "x86_64")]
     {
         let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
-        if law.control {
+        let known = kept.copied().unwrap_or_default();
+        if kept.is_some() {
             avx::with_flags!(
-                avx::force,
+                avx::moments,
                 dim,
                 [true],
                 hhb,
                 law,
-                (nb, law, w, points, stride)
+                (nb, law, w, points, stride, &known)
             )
         } else {
             avx::with_flags!(
-                avx::force,
+                avx::moments,
                 dim,
                 [false],
                 hhb,
                 law,
-                (nb, law, w, points, stride)
+                (nb, law, w, points, stride, &known)
             )
         }
     }
@@ -178,8 +232,9 @@ pub unsafe fn correspondence_force(
 /// bond: w, T) from the previous positions `nb.previous`.
 ///
 /// # Safety
-/// As for `correspondence_force`; `nb.history.len() == 4 * nb.neighbors.len()` and
-/// `nb.previous.len() == nb.current.len()`.
+/// As for `correspondence_sums`; `points.len() >= stride * nodes`,
+/// `stride >= record_block(nb.dim) + record_read(nb.dim)`,
+/// `nb.history.len() == 4 * nb.neighbors.len()` and `nb.previous.len() == nb.current.len()`.
 pub unsafe fn correspondence_force_work(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
@@ -190,6 +245,8 @@ pub unsafe fn correspondence_force_work(
 ) -> ([f64; 3], u64) {
     debug_assert_eq!(nb.history.len(), 4 * nb.neighbors.len());
     debug_assert_eq!(nb.previous.len(), nb.current.len());
+    // The records' blocks from B on: the kernel's offsets are relative to them.
+    let points = &points[record_block(nb.dim)..];
     #[cfg(target_arch = "x86_64")]
     {
         let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
@@ -369,8 +426,9 @@ mod avx {
         }
     }
 
-    /// Prefetches the cache lines of each record the force kernels read (words
-    /// 0..`record_read(D)` of a 64-byte-aligned record: three lines in 3D, two in 2D).
+    /// Prefetches the cache lines of each record the critical-energy force kernel reads
+    /// (words 0..`record_read(D)` of the block, which starts a cache line: three lines in 3D,
+    /// two in 2D).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn prefetch_records<const D: usize>(points: *const f64, stride: usize, n: [usize; 4]) {
@@ -608,10 +666,20 @@ mod avx {
         }
     }
 
+    /// The lanes of bonds b..b+4 set in `kept` (bit b: bond b carries force).
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn force<
+    #[inline]
+    unsafe fn kept_lanes(kept: &[u64; 4], b: usize) -> __m256d {
+        let bits = (kept[(b / 64) & 3] >> (b % 64)) & 0xF;
+        let select = _mm256_setr_epi64x(1, 2, 4, 8);
+        let set = _mm256_and_si256(_mm256_set1_epi64x(bits as i64), select);
+        _mm256_castsi256_pd(_mm256_cmpeq_epi64(set, select))
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn moments<
         const D: usize,
-        const CONTROL: bool,
+        const KEPT: bool,
         const HHB: bool,
         const INVERSE: bool,
     >(
@@ -620,58 +688,69 @@ mod avx {
         w: &UniformWeights,
         points: &[f64],
         stride: usize,
-    ) -> ([f64; 3], [f64; 3]) {
+        kept: &[u64; 4],
+    ) -> ([f64; MOMENT_WORDS], f64) {
         debug_assert!(
             nb.s0.is_none(),
             "the correspondence force pass does not decide failure"
         );
         debug_assert_eq!(nb.dim, D);
-        let i = nb.i;
-        let yi = own::<D>(nb.current.as_ptr(), i);
-        let xi_i = own::<D>(law.reference.as_ptr(), i);
+        let words = moment_words(D);
+        let yi = own::<D>(nb.current.as_ptr(), nb.i);
         let zero = _mm256_setzero_pd();
-        // One sum per row for both the B and the C1 terms: fewer live registers (the sums
-        // spilled to the stack when the B and C1 terms had their own).
-        let (mut other, mut seta) = ([zero; D], [zero; D]);
+        let base = points.as_ptr().add(record_moments(D));
+        // Two sets of sums, for even and odd lanes: each sum then waits on one fused
+        // multiply–add per two bonds instead of one per bond.
+        let mut acc = [[zero; MOMENT_WORDS / 4]; 2];
+        // The versions' sum, in the lane of `moment_version` (the other lanes sum u and 0).
+        let last = moment_version(D) / 4;
+        let mut versions = [zero; 2];
         let mut b = 0;
-        let base = points.as_ptr();
         while b + 4 <= nb.neighbors.len() {
-            let p = neighbours(nb, b).map(|k| base.add(k * stride));
-            let (y, x, c22) = positions::<D, CONTROL>(&p);
-            let d: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
+            let j = neighbours(nb, b);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            let keep = _mm256_and_pd(
-                intact(nb.status, b),
-                _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
-            );
-            let s = weight::<HHB, INVERSE>(law, w, l, keep);
-            let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
-            let xs = xi.map(|v| _mm256_mul_pd(v, s));
-            let es: [__m256d; D] =
-                std::array::from_fn(|a| _mm256_mul_pd(_mm256_sub_pd(d[a], xi[a]), s));
-            for a in 0..D {
-                seta[a] = _mm256_add_pd(seta[a], es[a]);
+            // The bonds the pre-pass summed K and N over: from its bits, or as it decided
+            // them (intact, |y| > 0) when it kept none.
+            let keep = if KEPT {
+                kept_lanes(kept, b)
+            } else {
+                let d = rows::<D>(nb.current.as_ptr(), j, &yi);
+                _mm256_and_pd(
+                    intact(nb.status, b),
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
+                )
+            };
+            let s = lanes(weight::<HHB, INVERSE>(law, w, l, keep));
+            // acc += s m_j, one neighbour's whole record at a time (whole-row loads: no
+            // gather, no shuffle).
+            for (lane, &k) in j.iter().enumerate() {
+                let (record, sk) = (base.add(k * stride), _mm256_set1_pd(s[lane]));
+                let sums = &mut acc[lane % 2];
+                for (r, sum) in sums.iter_mut().enumerate().take(words / 4) {
+                    let row = _mm256_loadu_pd(record.add(4 * r));
+                    *sum = _mm256_fmadd_pd(row, sk, *sum);
+                    if r == last {
+                        versions[lane % 2] = _mm256_add_pd(versions[lane % 2], row);
+                    }
+                }
             }
-            // Σ s (B_j ξ + C1_j η) = Σ B_j (s ξ) + C1_j (s η).
-            add_matrices::<D, CONTROL>(&p, &xs, &es, c22, &mut other);
             b += 4;
         }
-        let (mut f, mut se) = ([0.0; 3], [0.0; 3]);
-        for a in 0..D {
-            (f[a], se[a]) = (sum(other[a]), sum(seta[a]));
+        let mut m = [0.0; MOMENT_WORDS];
+        for (r, (even, odd)) in acc[0].iter().zip(&acc[1]).enumerate().take(words / 4) {
+            _mm256_storeu_pd(m.as_mut_ptr().add(4 * r), _mm256_add_pd(*even, *odd));
         }
-        tail(nb, b, |_, j, l, d, _| {
+        let mut version_sum = lanes(_mm256_add_pd(versions[0], versions[1]))[moment_version(D) % 4];
+        tail(nb, b, |_, j, l, _, _| {
             let s = law.omega(l) * (w.phi(l) * w.node.volume);
-            let xi = law.xi::<D>(i, j);
-            let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
-            let v = linear_half::<D, CONTROL>(&points[j * stride..], &xi, &eta);
-            for r in 0..D {
-                se[r] += eta[r] * s;
-                f[r] += v[r] * s;
+            let record = &points[j * stride + record_moments(D)..][..words];
+            for (sum, e) in m.iter_mut().zip(record) {
+                *sum += e * s;
             }
+            version_sum += record[moment_version(D)];
         });
-        (f, se)
+        (m, version_sum)
     }
 
     /// B ξ + C1 η of one bond from a record `m` (B then C1, column-major), in the generic

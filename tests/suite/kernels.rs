@@ -240,7 +240,8 @@ fn correspondence_kernels_match_the_generic_loop() {
 /// adaptive step restores the state) under a second field that breaks others, then that field
 /// again (K reused), then with the centre node cut from all but D − 1 neighbours (detached:
 /// its neighbours still read its positions from its point record). Each evaluation matches the
-/// generic loop, which always sums K. In 3D and in 2D.
+/// generic loop, which always sums K, and, bit for bit, a fresh simulation of the same state
+/// (which sums K and the force pass's memo of C1 sums anew). In 3D and in 2D.
 #[test]
 fn correspondence_shape_tensor_is_reused_only_for_the_same_bonds() {
     shape_tensor_reuse::<3>(Dimensionality::ThreeD);
@@ -261,7 +262,7 @@ where
         ZeroEnergyControl::Wan { coefficient: 1.0 },
     );
     let rule = PartialVolume::Hhb;
-    let evaluate = |vector: bool| {
+    let simulate = |vector: bool| {
         let (body, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
         let mut sim = simulation(
             body,
@@ -271,6 +272,10 @@ where
             rule,
         );
         sim.engine.vector_kernels = vector;
+        sim
+    };
+    let evaluate = |vector: bool| {
+        let mut sim = simulate(vector);
         let body = sim.body.clone();
         let centre = body.len() / 2;
         let mut out = Vec::new();
@@ -296,6 +301,16 @@ where
                 sim.state.set_displacement(&body, i, u);
             }
             sim.refresh_forces().unwrap();
+            let mut fresh = simulate(vector);
+            fresh.state.status.clone_from(&sim.state.status);
+            for i in 0..body.len() {
+                fresh.state.set_displacement(&body, i, sim.state.u[i]);
+            }
+            fresh.refresh_forces().unwrap();
+            assert!(
+                fresh.state.force == sim.state.force,
+                "{D}D: a fresh simulation of the same state gives other forces"
+            );
             if cut {
                 let p = &sim.engine.points()[centre];
                 assert!(
