@@ -546,7 +546,8 @@ pub fn prepare<const D: usize, M: Material<D>>(
         dt_stable: sim.dt_stable,
         steps,
         end_time: steps as f64 * sim.dt,
-        memory_bytes: nodes * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>())
+        memory_bytes: nodes
+            * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>() + M::NODE_BYTES)
             + sim.bonds.len() * bytes_per_bond,
         bytes_per_bond,
         materials: reports,

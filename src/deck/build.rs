@@ -134,6 +134,12 @@ fn deck_pores(
     }
 }
 
+/// The largest point state and per-node memo of any model (correspondence in 3D): what the
+/// memory estimate assumes per node before the model is built.
+const LARGEST_NODE_STATE: usize = std::mem::size_of::<
+    crate::material::correspondence::CorrespondencePoint<3>,
+>() + crate::material::stabilisation_memo::SLOT_BYTES;
+
 /// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
 /// memory than the machine has.
 pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckError> {
@@ -142,7 +148,7 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
     let dimensionality = dimensionality(deck).expect("validated deck");
     let thickness = deck.thickness.unwrap_or(1.0);
     let available = memory::available_bytes();
-    let per_node = memory::bytes_per_node(D, 256);
+    let per_node = memory::bytes_per_node(D, LARGEST_NODE_STATE);
     let mut pores_record = None;
     let mut record_pores = |(pores, text)| {
         pores_record = text;

@@ -484,6 +484,7 @@ impl<const D: usize> Material<D> for Correspondence {
     const CENTRAL: bool = false;
     const NEEDS_XI: bool = true;
     const FACTORED_OWN_HALF: bool = true;
+    const NODE_BYTES: usize = super::stabilisation_memo::SLOT_BYTES;
 
     /// Checks every shape tensor with all bonds intact.
     fn setup(

@@ -132,6 +132,8 @@ pub trait Material<const D: usize>: Sync + Send {
     const LINEAR_BOND: bool = false;
     /// The bond loops fill `BondGeom::xi` (the reference bond vector).
     const NEEDS_XI: bool = false;
+    /// Bytes per node the model keeps besides its point state (memory reports).
+    const NODE_BYTES: usize = 0;
     /// Non-central models whose own half factors through matrices of node i alone: the own
     /// half of the force density, V_j φ_ij μ_ij T_i⟨ξ⟩, is s_ij (B_i ξ + C_i η) with η = y − ξ
     /// and a scalar s_ij per bond (`own_half_weight`). The engine then sums s ξ and s η over

@@ -24,6 +24,9 @@ struct Slot([AtomicU64; 16]);
 
 const KEY: usize = MEMO_WORDS;
 
+/// Bytes of memo per node.
+pub const SLOT_BYTES: usize = std::mem::size_of::<Slot>();
+
 impl Slot {
     fn empty() -> Self {
         // NaN keys equal no sum of versions.
