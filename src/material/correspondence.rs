@@ -613,7 +613,8 @@ impl<const D: usize> Material<D> for Correspondence {
         let sums = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, large) };
         let (i, family) = (nb.i, family as u64);
         let vector = |v: &[f64]| SVector::<f64, D>::from_fn(|a, _| v[a]);
-        // The positions the force kernels read from this record, a detached node's too.
+        // The positions (u of the moment record; the critical-energy kernel reads them from
+        // this record), a detached node's too.
         point.y = vector(&nb.current[D * i..]);
         point.x = vector(&self.reference[D * i..]);
         // A detached node: no force state, nothing kept to reuse (its C1 is zero), its
