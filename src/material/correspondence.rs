@@ -23,8 +23,8 @@
 
 use super::simd::tail;
 use super::simd::NodeBonds;
-use super::simd_correspondence::{self, CorrespondenceLaw, MOMENT_WORDS};
-use super::stabilisation_memo::{StabilisationMemo, MEMO_WORDS};
+use super::simd_correspondence::{self, lower, CorrespondenceLaw, MOMENT_WORDS};
+use super::stabilisation_memo::{StabilisationMemo, MEMO_C1, MEMO_SUM, MEMO_WORDS};
 use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointError};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
@@ -32,11 +32,6 @@ use crate::bonds::{Bonds, Quadrature};
 use crate::math::{determinant, inverse, Vector};
 use crate::per_node::PerNode;
 use nalgebra::{SMatrix, SVector};
-
-/// The (row, column) entries of a symmetric D×D matrix's lower triangle, column by column.
-fn lower<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
-    (0..D).flat_map(|c| (c..D).map(move |r| (r, c)))
-}
 
 /// The symmetric D×D matrix of a lower triangle given in the order of `lower`.
 fn symmetric<const D: usize>(lower_triangle: &[f64]) -> SMatrix<f64, D, D> {
@@ -410,15 +405,16 @@ impl Correspondence {
             for (e, (r, c)) in lower::<D>().enumerate() {
                 memo[e] += s * points[j].c1[(r, c)];
             }
-            memo[12] += s;
+            memo[MEMO_SUM] += s;
         });
         for (e, (r, c)) in lower::<D>().enumerate() {
-            memo[6 + e] = points[nb.i].c1[(r, c)];
+            memo[MEMO_C1 + e] = points[nb.i].c1[(r, c)];
         }
         memo
     }
 
-    /// Node i's force density from the moment sums M = Σ s m_j over its bonds
+    /// Node i's force density, Σ_j (T_i⟨ξ⟩ − T_j⟨−ξ⟩) V_j with T = ω (B ξ + C1 η) (seed 004
+    /// Eqs. 8 and 12–14, see `half`), from the moment sums M = Σ s m_j over its bonds
     /// (`correspondence_moments`), its memo and its own record, with ξ = x̂_j − x̂_i and
     /// η = u_j − u_i: the other halves Σ s (B_j ξ + C1_j η) = Σ s g_j − (Σ s B_j) x̂_i − W u_i
     /// and its own halves B_i Σ s ξ + C1_i Σ s η with Σ s η = Σ s u_j − S u_i.
@@ -436,10 +432,13 @@ impl Correspondence {
         use simd_correspondence::{moment_g, moment_u};
         let at = |m: &[f64], k: usize| Vector::<D>::from_column_slice(&m[k..k + D]);
         let u = at(&pi.moments, moment_u(D));
-        let (w, c1) = (symmetric::<D>(&memo[..6]), symmetric::<D>(&memo[6..12]));
+        let (w, c1) = (
+            symmetric::<D>(&memo[..MEMO_C1]),
+            symmetric::<D>(&memo[MEMO_C1..MEMO_SUM]),
+        );
         let sum_b = SMatrix::<f64, D, D>::from_column_slice(&m[..D * D]);
         let other = at(m, moment_g(D)) - sum_b * self.x_hat::<D>(i) - w * u;
-        let sum_eta = at(m, moment_u(D)) - u * memo[12];
+        let sum_eta = at(m, moment_u(D)) - u * memo[MEMO_SUM];
         let b = SMatrix::<f64, D, D>::from_column_slice(&pi.moments[..D * D]);
         other + b * at(&pi.shape_xi, 0) + c1 * sum_eta
     }

@@ -128,6 +128,13 @@ pub fn prefetch<T>(value: &T) {
     }
 }
 
+/// The (row, column) entries of a symmetric D×D matrix's lower triangle, column by column:
+/// (0,0), (1,0), (2,0), (1,1), (2,1), (2,2) in 3D; (0,0), (1,0), (1,1) in 2D.
+#[inline(always)]
+pub fn lower<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
+    (0..D).flat_map(|c| (c..D).map(move |r| (r, c)))
+}
+
 /// Families of up to this many bonds get `Sums::kept`.
 pub const KEPT_BITS: usize = 256;
 
@@ -356,13 +363,6 @@ mod avx {
             let (x1, x2) = pair(p, rx + 1);
             (first([y0, y1, y2]), first([x0, x1, x2]), zero)
         }
-    }
-
-    /// The (row, column) entries of a symmetric D×D matrix's lower triangle, column by column:
-    /// (0,0), (1,0), (2,0), (1,1), (2,1), (2,2) in 3D; (0,0), (1,0), (1,1) in 2D.
-    #[inline(always)]
-    fn lower<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
-        (0..D).flat_map(|c| (c..D).map(move |r| (r, c)))
     }
 
     /// The index of entry (r, c) of a symmetric D×D matrix in the order of `lower`: columns

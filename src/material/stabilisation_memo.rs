@@ -14,7 +14,11 @@
 
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
-/// Words of a node's memo: W's lower triangle (6), its own C1's lower triangle (6), S.
+/// Words of a node's memo: W's lower triangle from 0, its own C1's lower triangle from
+/// `MEMO_C1` (kept here, on the line the force pass reads anyway, rather than read from the
+/// node's point record, whose C1 no neighbour brings into the cache), S at `MEMO_SUM`.
+pub const MEMO_C1: usize = 6;
+pub const MEMO_SUM: usize = 12;
 pub const MEMO_WORDS: usize = 13;
 
 /// A slot: the memo, then its key (the neighbours' version sum and the node's own version),
