@@ -6,6 +6,23 @@
 /// A point or vector in `D` dimensions.
 pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;
 
+/// The smallest and largest coordinate of `points` along `axis` (m); [∞, −∞] without points.
+pub fn extent<const D: usize>(points: &[Vector<D>], axis: usize) -> [f64; 2] {
+    points
+        .iter()
+        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], p| {
+            [lo.min(p[axis]), hi.max(p[axis])]
+        })
+}
+
+/// The middle of the points' extent along `axis` (m); 0 without points.
+pub fn extent_middle<const D: usize>(points: &[Vector<D>], axis: usize) -> f64 {
+    match extent(points, axis) {
+        [lo, hi] if lo <= hi => 0.5 * (lo + hi),
+        _ => 0.0,
+    }
+}
+
 /// Builds a `Vector<D>` from the first `D` entries of a slice.
 pub fn vector_from_slice<const D: usize>(s: &[f64]) -> Vector<D> {
     Vector::<D>::from_fn(|k, _| s[k])

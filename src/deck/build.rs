@@ -30,7 +30,8 @@ use crate::material::surface_correction::{
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
-use crate::plot::map_nodes::{extent, MapNodes};
+use crate::math::extent;
+use crate::plot::map_nodes::MapNodes;
 use serde::Serialize;
 use std::collections::BTreeMap;
 

@@ -29,7 +29,7 @@ use super::{BondGeom, Dimensionality, Elasticity, Influence, Material, PointErro
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
-use crate::math::{determinant, inverse, Vector};
+use crate::math::{determinant, extent_middle, inverse, Vector};
 use crate::per_node::PerNode;
 use nalgebra::{SMatrix, SVector};
 
@@ -105,6 +105,8 @@ pub struct CorrespondencePoint<const D: usize> {
     /// `kept` and `kept_of`, one cache line: what the vector force pass reads of the node
     /// itself besides its moment record.
     pub shape_xi: [f64; 3],
+    /// B, as in the first D² words of `moments`: a copy in the block the critical-energy
+    /// kernel reads (with C1 and the positions) and for the generic loops.
     pub b: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
     /// The node's current and reference positions (vector pre-pass only): with B and C1
@@ -498,12 +500,8 @@ impl<const D: usize> Material<D> for Correspondence {
             .flat_map(|x| x.iter().copied())
             .collect();
         self.origin = std::array::from_fn(|a| {
-            let coordinate = body.positions.iter().filter_map(|x| x.get(a).copied());
-            let (low, high) = coordinate.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), c| {
-                (l.min(c), h.max(c))
-            });
-            if low <= high {
-                0.5 * (low + high)
+            if a < D {
+                extent_middle(&body.positions, a)
             } else {
                 0.0
             }
@@ -709,7 +707,7 @@ impl<const D: usize> Material<D> for Correspondence {
         let (i, pi) = (nb.i, &points[nb.i]);
         // What only the next node's own force pass reads: a line of its record, its memo.
         if let Some(next) = points.get(i + 1) {
-            simd_correspondence::prefetch(&next.kept);
+            super::simd::prefetch(&next.kept);
             self.memo.prefetch(i + 1);
         }
         // The bonds that carry force, as the pre-pass found them, when it kept them.

@@ -170,6 +170,18 @@ pub struct LpsLaw {
     pub inverse_influence: bool,
 }
 
+/// Asks for the cache line that holds `value` (a hint: no effect on results).
+#[inline(always)]
+pub fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing; SSE is part of x86-64.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            value as *const T as *const i8,
+        )
+    }
+}
+
 /// |y| of a deformed bond vector, in the order the vector lanes use.
 #[inline(always)]
 pub(crate) fn length(d: &[f64; 3]) -> f64 {

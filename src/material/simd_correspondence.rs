@@ -116,18 +116,6 @@ pub const fn moment_words(d: usize) -> usize {
 /// The moment record's room in a point record, for either dimension.
 pub const MOMENT_WORDS: usize = moment_words(3);
 
-/// Asks for the cache line that holds `value` (a hint: no effect on results).
-#[inline(always)]
-pub fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch reads nothing; SSE is part of x86-64.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            value as *const T as *const i8,
-        )
-    }
-}
-
 /// The (row, column) entries of a symmetric D×D matrix's lower triangle, column by column:
 /// (0,0), (1,0), (2,0), (1,1), (2,1), (2,2) in 3D; (0,0), (1,0), (1,1) in 2D.
 #[inline(always)]

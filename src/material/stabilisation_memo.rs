@@ -77,8 +77,8 @@ impl StabilisationMemo {
     /// Asks for node i's slot (a hint).
     pub fn prefetch(&self, i: usize) {
         if let Some(slot) = self.slots.get(i) {
-            super::simd_correspondence::prefetch(slot);
-            super::simd_correspondence::prefetch(&slot.0[8]);
+            super::simd::prefetch(slot);
+            super::simd::prefetch(&slot.0[8]);
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Which nodes a field map draws, at which 2D coordinates: the whole body in 2D, the nodes
 //! near a plane in 3D (a slice).
 
-use crate::math::Vector;
+use crate::math::{extent_middle, Vector};
 use std::borrow::Cow;
 
 const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
@@ -30,23 +30,6 @@ fn in_plane(axis: usize) -> [usize; 2] {
     }
 }
 
-/// The smallest and largest node coordinate along `axis` (m); [∞, −∞] without nodes.
-pub fn extent<const D: usize>(positions: &[Vector<D>], axis: usize) -> [f64; 2] {
-    positions
-        .iter()
-        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], p| {
-            [lo.min(p[axis]), hi.max(p[axis])]
-        })
-}
-
-/// The middle of the nodes' extent along `axis` (m); 0 without nodes.
-fn mid_plane<const D: usize>(positions: &[Vector<D>], axis: usize) -> f64 {
-    match extent(positions, axis) {
-        [lo, hi] if lo <= hi => 0.5 * (lo + hi),
-        _ => 0.0,
-    }
-}
-
 impl MapNodes {
     /// Every node of a 2D body.
     pub fn whole<const D: usize>(positions: &[Vector<D>], cell_sizes: &[f64]) -> Self {
@@ -68,7 +51,7 @@ impl MapNodes {
         axis: usize,
         at: Option<f64>,
     ) -> Self {
-        let at = at.unwrap_or_else(|| mid_plane(positions, axis));
+        let at = at.unwrap_or_else(|| extent_middle(positions, axis));
         let [a, b] = in_plane(axis);
         // A relative slack so a plane on a cell face does not lose a layer to rounding.
         let near = |p: &Vector<D>, c: f64| (p[axis] - at).abs() <= 0.5 * c * (1.0 + 1e-9);
