@@ -28,9 +28,9 @@ use crate::material::surface_correction::{
     corrected, surface_factors, SurfaceCorrection, SurfaceFactors,
 };
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
+use crate::math::extent;
 use crate::math::{vector_from_slice, Vector};
 use crate::memory;
-use crate::math::extent;
 use crate::plot::map_nodes::MapNodes;
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -18,8 +18,12 @@
 //! differ from the generic loop by round-off (10⁻¹⁴ of the forces; the moment form's grows
 //! with the body's size over the horizon, see `Correspondence::moment_force`), and the
 //! quantities that decide failure (|y|, the stretch, the work update from the pair force) are
-//! computed in the generic loop's order. The kernels run only where the CPU has both AVX2 and
-//! FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the generic loop.
+//! computed in the generic loop's order. The critical-energy pass forms a bond's two halves
+//! apart, in one order, and adds them scaled (in its lanes and its tail alike), so that the
+//! entries i→j and j→i get exactly opposite pair forces and record the same work: both ends
+//! decide the bond alike, as in the generic loop. The kernels run only where the CPU has both
+//! AVX2 and FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the
+//! generic loop and checks that the two entries of every bond agree.
 //!
 //! Loads: the moment pass reads each neighbour's record as whole 256-bit rows (two cache
 //! lines in 3D); the pre-pass and the critical-energy pass read positions, B and C1 as
@@ -741,27 +745,29 @@ mod avx {
         (m, version_sum)
     }
 
-    /// B ξ + C1 η of one bond from a record `m` (B then C1, column-major), in the generic
-    /// `linear_half`'s order: (B ξ) + (C1 η), each row ((m₀ξ₀ + m₁ξ₁) + m₂ξ₂); zero past D.
+    /// B ξ + C1 η of one bond from a record `m` (B then C1, column-major) as the lanes of
+    /// `force_work` compute it: each row m₀ξ₀, then fused multiply–adds of B's other columns
+    /// and of C1's lower triangle (C1 is symmetric), column by column; zero past D. The same
+    /// bits as a lane, so that a bond in one end's tail and in the other end's groups gets
+    /// the same pair force from both.
     #[inline(always)]
     fn linear_half<const D: usize, const CONTROL: bool>(
         m: &[f64],
         xi: &[f64; 3],
         eta: &[f64; 3],
     ) -> [f64; 3] {
-        let c1 = record_c1(D);
+        let c1 = &m[record_c1(D)..];
+        let lower = |r: usize, c: usize| c1[D * r.min(c) + r.max(c)];
         let mut v = [0.0; 3];
         for r in 0..D {
             v[r] = m[r] * xi[0];
             for c in 1..D {
-                v[r] += m[D * c + r] * xi[c];
+                v[r] = m[D * c + r].mul_add(xi[c], v[r]);
             }
             if CONTROL {
-                let mut t = m[c1 + r] * eta[0];
-                for c in 1..D {
-                    t += m[c1 + D * c + r] * eta[c];
+                for (c, e) in eta.iter().enumerate().take(D) {
+                    v[r] = lower(r, c).mul_add(*e, v[r]);
                 }
-                v[r] += t;
             }
         }
         v
@@ -848,9 +854,10 @@ mod avx {
             );
             let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
             let eta: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
-            // Both halves' B ξ + C1 η: node i's from its broadcast entries, then the
-            // neighbours'.
-            let mut t: [__m256d; D] = std::array::from_fn(|r| {
+            // Each half's B ξ + C1 η apart, in the same order (`linear_half`): node i's from
+            // its broadcast entries, the neighbours' from a −0 start (a fused multiply–add
+            // onto −0 is the product itself, as the first product of node i's).
+            let mut own: [__m256d; D] = std::array::from_fn(|r| {
                 let mut v = _mm256_mul_pd(mine_b[r], xi[0]);
                 for c in 1..D {
                     v = _mm256_fmadd_pd(mine_b[D * c + r], xi[c], v);
@@ -858,14 +865,22 @@ mod avx {
                 v
             });
             if CONTROL {
-                add_symmetric::<D>(&mine_c1, &eta, &mut t);
+                add_symmetric::<D>(&mine_c1, &eta, &mut own);
             }
-            add_matrices::<D, CONTROL>(&p, &xi, &eta, c22, &mut t);
+            let mut other = [_mm256_set1_pd(-0.0); D];
+            add_matrices::<D, CONTROL>(&p, &xi, &eta, c22, &mut other);
             // The pair force T = ω φ (both halves), the generic `pair_force` without V; its
-            // third component and that of Δη are zero in 2D (the record's padding).
+            // third component and that of Δη are zero in 2D (the record's padding). Each half
+            // scaled, then added: from j's end the same bond gives exactly −T (its halves are
+            // these negated, in the other order), so both entries record the same work.
             let wp = omega_phi::<HHB, INVERSE>(law, w, l);
-            let force: [__m256d; 3] =
-                std::array::from_fn(|a| if a < D { _mm256_mul_pd(t[a], wp) } else { zero });
+            let force: [__m256d; 3] = std::array::from_fn(|a| {
+                if a < D {
+                    _mm256_add_pd(_mm256_mul_pd(own[a], wp), _mm256_mul_pd(other[a], wp))
+                } else {
+                    zero
+                }
+            });
             // Δη = y − (y_j − y_i at the previous evaluation).
             let dp = rows::<D>(previous, j, &pi);
             let step: [__m256d; 3] = std::array::from_fn(|a| {
@@ -958,8 +973,8 @@ mod avx {
             if len <= 0.0 {
                 continue;
             }
-            // The generic loop's steps for one bond: T = ω φ (B_i ξ + C1_i η) + ω φ (B_j ξ +
-            // C1_j η), its work, failure, T V.
+            // The generic loop's steps for one bond, in the lanes' arithmetic: T = ω φ (B_i ξ
+            // + C1_i η) + ω φ (B_j ξ + C1_j η), its work, failure, T V.
             let l = nb.ref_lengths[b];
             let (om, p) = (law.omega(l), w.phi(l));
             let xi = law.xi::<D>(i, j);
@@ -968,7 +983,8 @@ mod avx {
                 linear_half::<D, CONTROL>(pts(i), &xi, &eta),
                 linear_half::<D, CONTROL>(pts(j), &xi, &eta),
             );
-            let force: [f64; 3] = std::array::from_fn(|a| own_half[a] * om * p + other[a] * om * p);
+            let wp = om * p;
+            let force: [f64; 3] = std::array::from_fn(|a| own_half[a] * wp + other[a] * wp);
             let step: [f64; 3] = std::array::from_fn(|a| d[a] - (pj[a] - pi[a]));
             broke += energy.on_work(
                 i,

@@ -89,6 +89,12 @@ fn compare_loaded<const D: usize, M: Material<D> + Clone>(
                 .eq(hv.iter().map(|h| h.to_bits())),
         "{name}: the vector kernel differs between 1 and 2 threads"
     );
+    // Both entries of a bond agree, in either loop: the halves' broken bits mirrored, the
+    // same work (and the pair force negated) in their records.
+    let (_, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
+    for (label, (_, status, history, _)) in [("vector", &runs[0]), ("generic", &runs[2])] {
+        mirrored(&format!("{name} ({label})"), &bonds, status, history);
+    }
     let (fg, sg, hg, first) = &runs[2];
     for (k, (v, g)) in history_values(hv, sv.len())
         .iter()
@@ -114,6 +120,37 @@ fn compare_loaded<const D: usize, M: Material<D> + Clone>(
         first: *first,
         last: sg.iter().filter(|&&s| s != 0).count(),
         kernel_ran: fv != fg,
+    }
+}
+
+/// Checks that every bond entry i→j and its reverse j→i agree: i's half broken in one exactly
+/// when it is broken in the other (the own and other bits swap), and the same record, the
+/// vector force of a four-word record [w, T] negated (T_ji = −T_ij: the pair force on j).
+fn mirrored(name: &str, bonds: &peridyn::bonds::Bonds, status: &[u8], history: &[f64]) {
+    use peridyn::state::{OTHER_BROKEN, OWN_BROKEN};
+    let words = history.len() / status.len();
+    for i in 0..bonds.nodes() {
+        for b in bonds.family(i) {
+            let r = bonds.reverse(i, b).expect("symmetric families");
+            let swapped = (status[r] & OWN_BROKEN) << 1 | (status[r] & OTHER_BROKEN) >> 1;
+            assert_eq!(
+                status[b], swapped,
+                "{name}: entries {b} and {r} disagree on failure"
+            );
+            let (hb, hr) = (
+                &history[words * b..words * (b + 1)],
+                &history[words * r..words * (r + 1)],
+            );
+            for k in 0..words {
+                let expected = if words == 4 && k > 0 { -hr[k] } else { hr[k] };
+                assert!(
+                    hb[k] == expected,
+                    "{name}: entries {b} and {r} record {} and {} in word {k}",
+                    hb[k],
+                    hr[k]
+                );
+            }
+        }
     }
 }
 
