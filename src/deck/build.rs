@@ -28,8 +28,7 @@ use crate::material::surface_correction::{
     corrected, surface_factors, SurfaceCorrection, SurfaceFactors,
 };
 use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pmb};
-use crate::math::extent;
-use crate::math::{vector_from_slice, Vector};
+use crate::math::{extent, vector_from_slice, Vector};
 use crate::memory;
 use crate::plot::map_nodes::MapNodes;
 use serde::Serialize;

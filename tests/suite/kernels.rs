@@ -91,7 +91,7 @@ fn compare_loaded<const D: usize, M: Material<D> + Clone>(
     );
     // Both entries of a bond agree, in either loop: the halves' broken bits mirrored, the
     // same work (and the pair force negated) in their records.
-    let (_, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
+    let (_, bonds) = test_lattice::<D>(rule);
     for (label, (_, status, history, _)) in [("vector", &runs[0]), ("generic", &runs[2])] {
         mirrored(&format!("{name} ({label})"), &bonds, status, history);
     }
@@ -173,6 +173,14 @@ fn history_values(history: &[f64], bonds: usize) -> Vec<Vec<f64>> {
     out
 }
 
+/// The lattice every comparison runs on: 9 cells a side in 3D, 17 in 2D (families of about
+/// 120 and 30 bonds), δ = 3Δx.
+fn test_lattice<const D: usize>(
+    rule: PartialVolume,
+) -> (peridyn::body::Body<D>, peridyn::bonds::Bonds) {
+    lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule)
+}
+
 fn run<const D: usize, M: Material<D> + Clone>(
     material: &M,
     damage: Damage,
@@ -181,8 +189,7 @@ fn run<const D: usize, M: Material<D> + Clone>(
     loading: Loading,
 ) -> Run<D> {
     {
-        // 9 cells a side in 3D, 17 in 2D (families of about 120 and 30 bonds).
-        let (mut body, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
+        let (mut body, bonds) = test_lattice::<D>(rule);
         if loading.no_fail {
             for i in 0..body.len() {
                 body.no_fail[i] = body.positions[i][0] < 2e-3;
@@ -300,7 +307,7 @@ where
     );
     let rule = PartialVolume::Hhb;
     let simulate = |vector: bool| {
-        let (body, bonds) = lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule);
+        let (body, bonds) = test_lattice::<D>(rule);
         let mut sim = simulation(
             body,
             bonds,
