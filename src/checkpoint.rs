@@ -5,10 +5,12 @@
 //! - origin: peridyn version and deck file (u32 length + UTF-8 each), hash of the resolved deck
 //!   (u64, FNV-1a 64 of its text);
 //! - sizes (u64 each): dimension, nodes, directed bond entries, history words, previous
-//!   positions, the quasi-static predictor's displacements (0 or nodes), impactors;
+//!   positions, previous own-half matrices (words), the quasi-static predictor's
+//!   displacements (0 or nodes), impactors;
 //! - payload: the State scalars, the driver state (time step controller, stage in progress,
 //!   quasi-static solver), then the arrays (u, v, current, force, body_force as D f64 per
-//!   node; status as u8; history as f64; previous as D f64 each; the predictor's
+//!   node; status as u8; history as f64; previous as D f64 each; the previous matrices as
+//!   f64; the predictor's
 //!   displacements as D f64 each; per impactor its position, velocity and force as D f64
 //!   each and its penalty energy);
 //! - FNV-1a 64 of every byte before it.
@@ -26,7 +28,7 @@ use std::path::{Path, PathBuf};
 
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
-const FORMAT: u32 = 3;
+const FORMAT: u32 = 4;
 /// State and driver scalars in the payload.
 const SCALARS: usize = 20;
 
@@ -191,6 +193,7 @@ pub fn write<const D: usize>(
         status,
         history,
         previous,
+        previous_matrices,
         broken,
         external_work,
         dissipated_viscous,
@@ -217,6 +220,7 @@ pub fn write<const D: usize>(
             status.len(),
             history.len(),
             previous.len(),
+            previous_matrices.len(),
             predictor,
             driver.impactors.len(),
         ] {
@@ -256,6 +260,9 @@ pub fn write<const D: usize>(
             .iter()
             .try_for_each(|x| w.write_all(&x.to_le_bytes()))?;
         put_vectors(&mut w, previous)?;
+        previous_matrices
+            .iter()
+            .try_for_each(|x| w.write_all(&x.to_le_bytes()))?;
         if let Some((_, displacements)) = qs_previous {
             put_vectors(&mut w, displacements)?;
         }
@@ -389,6 +396,7 @@ pub fn restore<const D: usize>(
         status,
         history,
         previous,
+        previous_matrices,
         broken,
         external_work,
         dissipated_viscous,
@@ -405,6 +413,7 @@ pub fn restore<const D: usize>(
         ("directed bond entries", status.len()),
         ("damage history words", history.len()),
         ("previous positions", previous.len()),
+        ("previous own-half matrix words", previous_matrices.len()),
     ] {
         let found = r.u64()?;
         if what == "damage history words" && unused_history(found, expected, status.len()) {
@@ -434,7 +443,7 @@ pub fn restore<const D: usize>(
     let payload = SCALARS * 8
         + 5 * n * D * 8
         + status.len()
-        + file_history * 8
+        + (file_history + previous_matrices.len()) * 8
         + (previous.len() + predictor) * D * 8
         + impactors.saturating_mul((3 * D + 1) * 8);
     let expected = r.pos.saturating_add(payload).saturating_add(8) as u64;
@@ -486,6 +495,13 @@ pub fn restore<const D: usize>(
         *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
     }
     r.vectors(previous)?;
+    let words = previous_matrices.len();
+    for (x, chunk) in previous_matrices
+        .iter_mut()
+        .zip(r.take(words * 8)?.chunks_exact(8))
+    {
+        *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
+    }
     if qs {
         let mut displacements = vec![Vector::<D>::zeros(); predictor];
         r.vectors(&mut displacements)?;
@@ -537,6 +553,7 @@ mod tests {
             status: vec![0, 1, 0, 0, 3, 0],
             history: (0..6 * words).map(|k| 1.5 * k as f64).collect(),
             previous: Vec::new(),
+            previous_matrices: Vec::new(),
             broken: 2,
             external_work: 4.0,
             dissipated_viscous: 0.5,

@@ -36,6 +36,10 @@ pub struct State<const D: usize> {
     /// Current positions at the previous force evaluation, kept only for damage laws that
     /// integrate the work done on bonds (empty otherwise).
     pub previous: Vec<Vector<D>>,
+    /// Per node, the matrices of its own half at the previous force evaluation (B and C1,
+    /// `Material::NODE_MATRIX_WORDS` each), kept only when a critical energy integrates each
+    /// half's work apart (`DamageLaw::SPLITS_WORK`; empty otherwise).
+    pub previous_matrices: Vec<f64>,
     /// Number of broken directed bond halves (a bond whose ends share a law counts twice).
     pub broken: u64,
     /// Work done by boundary conditions and loads since the start (J).
@@ -70,6 +74,7 @@ impl<const D: usize> Clone for State<D> {
             status: Vec::new(),
             history: Vec::new(),
             previous: Vec::new(),
+            previous_matrices: Vec::new(),
             broken: 0,
             external_work: 0.0,
             dissipated_viscous: 0.0,
@@ -94,6 +99,7 @@ impl<const D: usize> Clone for State<D> {
             status,
             history,
             previous,
+            previous_matrices,
             broken,
             external_work,
             dissipated_viscous,
@@ -111,6 +117,7 @@ impl<const D: usize> Clone for State<D> {
         status.clone_from(&source.status);
         history.clone_from(&source.history);
         previous.clone_from(&source.previous);
+        previous_matrices.clone_from(&source.previous_matrices);
         *broken = source.broken;
         *external_work = source.external_work;
         *dissipated_viscous = source.dissipated_viscous;
@@ -135,6 +142,7 @@ impl<const D: usize> State<D> {
             status: vec![INTACT; bonds.len()],
             history: vec![0.0; bonds.len() * history_words],
             previous: Vec::new(),
+            previous_matrices: Vec::new(),
             broken: 0,
             external_work: 0.0,
             dissipated_viscous: 0.0,
@@ -179,6 +187,7 @@ mod tests {
             status: vec![INTACT; 30_000],
             history: vec![0.5; 30_000],
             previous: Vec::new(),
+            previous_matrices: Vec::new(),
             broken: 3,
             external_work: 2.0,
             dissipated_viscous: 0.25,

@@ -10,8 +10,16 @@
 //!   history per bond: w (f64), and f and e as f32 packed in one word (16 bytes: the loop is
 //!   bound by memory traffic; single precision of the previous values changes w by ~1e-7 of
 //!   itself per step, far below any calibration);
-//! - any force (correspondence): w += ½ (F_prev + F)·Δη, Δη from the positions of the
-//!   previous evaluation, which the engine keeps per node; history: w, F (32 bytes).
+//! - any force (several materials with correspondence blocks, or w_c per node): w +=
+//!   ½ (F_prev + F)·Δη, Δη from the positions of the previous evaluation, which the engine
+//!   keeps per node; history: w, F (32 bytes);
+//! - correspondence with one w_c (`UniformCriticalEnergy::SPLITS_WORK`): each half is linear
+//!   in ξ and η through its node's matrices, T_i = ω φ (B_i ξ + C1_i η), so each entry keeps
+//!   only its own half's work, w_i += ½ (T_i,prev + T_i)·Δη, from node i's matrices now and at
+//!   the previous evaluation (kept per node: 2D² words) — the same trapezoidal sum, split:
+//!   w = w_i + w_j. History: 8 bytes. The engine decides the bond after the force pass from
+//!   the sum (the same from either end) and takes its pair force back, as if the whole pair
+//!   had been recorded (`ForceEngine`'s split work).
 //!
 //! The pair force carries the bond's partial-volume fraction φ̄ = ½(φ_ij + φ_ji), and so does
 //! the threshold: a half fails when w ≥ w_c φ̄, i.e. when the work density of the continuum bond
@@ -98,6 +106,7 @@ impl DamageLaw for UniformCriticalEnergy {
     const HISTORY_LINEAR: usize = 0;
     const ON_WORK: bool = true;
     const HALVES_TOGETHER: bool = true;
+    const SPLITS_WORK: bool = true;
 
     fn uniform_critical_energy(&self) -> Option<UniformCriticalEnergy> {
         Some(*self)

@@ -57,7 +57,7 @@ impl MixedDamage {
         history_words(
             self.softens(),
             self.records_work(),
-            force != BondForce::Vector,
+            matches!(force, BondForce::Linear | BondForce::Central),
         )
     }
 

@@ -34,8 +34,12 @@ pub enum BondForce {
     Linear,
     /// Along the bond (bond-based, LPS).
     Central,
-    /// In any direction (correspondence).
+    /// In any direction (a body of several materials with correspondence blocks).
     Vector,
+    /// In any direction, each half linear in the bond's ξ and η through its own node's
+    /// matrices, T_i = ω φ (B_i ξ + C1_i η) (correspondence): a law can integrate each half's
+    /// work apart from node i's matrices at the two evaluations (`DamageLaw::SPLITS_WORK`).
+    NodeLinear,
 }
 
 /// The pair force of a bond (N/m⁶, weighted by its partial volumes) and the deformation it
@@ -94,6 +98,12 @@ pub trait DamageLaw: Sync + Send {
     const HISTORY: usize = 0;
     /// The same for other materials (their bond work needs the force vector).
     const HISTORY_VECTOR: usize = Self::HISTORY;
+    /// With a `BondForce::NodeLinear` material the law keeps one word per entry, the work of
+    /// the entry's own half (w_i += ½ (T_i,prev + T_i)·Δη from node i's matrices at the two
+    /// evaluations, which the engine keeps per node), and decides a bond from the sum of its
+    /// two entries' words after the force sweep (`ForceEngine`'s split work). Valid for one
+    /// law with one threshold (`HALVES_TOGETHER`, `fails_on_work`).
+    const SPLITS_WORK: bool = false;
     /// With a linear-bond material (`BondForce::Linear`) the law takes a bond's work in
     /// closed form (`Work::Stored`) and keeps no record of it; valid when both halves always
     /// break together, so that the bond stays linear until it breaks. Its history is then
@@ -252,6 +262,14 @@ impl Damage {
         }
     }
 
+    /// Whether the engine splits each bond's work between its two entries
+    /// (`DamageLaw::SPLITS_WORK`) for a material whose pair force is `force`: it then keeps
+    /// each node's own-half matrices of the previous evaluation.
+    pub fn splits_work(&self, force: BondForce) -> bool {
+        force == BondForce::NodeLinear
+            && matches!(self, Damage::CriticalEnergy(d) if d.uniform_form().is_some())
+    }
+
     /// Whether the law integrates the work done on bonds (for a non-central material the
     /// engine then keeps the positions of the previous evaluation).
     pub fn records_work(&self) -> bool {
@@ -340,7 +358,8 @@ pub const fn history_words<L: DamageLaw>(force: BondForce) -> usize {
     match force {
         BondForce::Linear if L::CLOSED_FORM_WORK => L::HISTORY_LINEAR,
         BondForce::Linear | BondForce::Central => L::HISTORY,
-        BondForce::Vector => L::HISTORY_VECTOR,
+        BondForce::NodeLinear if L::SPLITS_WORK => 1,
+        BondForce::Vector | BondForce::NodeLinear => L::HISTORY_VECTOR,
     }
 }
 

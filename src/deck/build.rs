@@ -134,11 +134,13 @@ fn deck_pores(
     }
 }
 
-/// The largest point state and per-node memo of any model (correspondence in 3D): what the
-/// memory estimate assumes per node before the model is built.
+/// The largest point state, per-node memo and previous own-half matrices of any model
+/// (correspondence in 3D): what the memory estimate assumes per node before the model is
+/// built.
 const LARGEST_NODE_STATE: usize = std::mem::size_of::<
     crate::material::correspondence::CorrespondencePoint<3>,
->() + crate::material::stabilisation_memo::SLOT_BYTES;
+>() + crate::material::stabilisation_memo::SLOT_BYTES
+    + 8 * 2 * 3 * 3;
 
 /// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
 /// memory than the machine has.
@@ -354,6 +356,8 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         // when every node has the same horizon (else the estimate counts the record).
         let same_horizon = body.horizons.iter().all(|&h| h == body.horizons[0]);
         let force = match m {
+            // One w_c (one horizon): each entry keeps its own half of the work.
+            MaterialDeck::Correspondence { .. } if same_horizon => BondForce::NodeLinear,
             MaterialDeck::Correspondence { .. } => BondForce::Vector,
             MaterialDeck::Pmb { .. } if same_horizon => BondForce::Linear,
             _ => BondForce::Central,

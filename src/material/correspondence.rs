@@ -73,10 +73,9 @@ const SINGULAR: f64 = 1e-8;
 /// state and no energy of its own.
 ///
 /// With B, a half is ω (A ξ + C1 z) = ω (B ξ + C1 η) since z = Y − F ξ = η − H ξ (Eq. 14): the
-/// force pass needs no z per bond and reads only B and C1. The vector force pass under a
-/// critical stretch reads of a neighbour only its moment record (`moments`, the first two
-/// cache lines of the 64-byte-aligned record in 3D); under a critical energy, the block of B,
-/// C1 and both positions after it. H is kept for the energy (W of E(H), and z for the
+/// force pass needs no z per bond and reads only B and C1. The vector force pass reads of a
+/// neighbour only its moment record (`moments`, the first two cache lines of the
+/// 64-byte-aligned record in 3D). H is kept for the energy (W of E(H), and z for the
 /// stabilisation energy).
 ///
 /// The model works with H rather than F = (Σ ω Y⊗ξ w) K⁻¹: K K⁻¹ is the identity only to
@@ -105,12 +104,12 @@ pub struct CorrespondencePoint<const D: usize> {
     /// `kept` and `kept_of`, one cache line: what the vector force pass reads of the node
     /// itself besides its moment record.
     pub shape_xi: [f64; 3],
-    /// B, as in the first D² words of `moments`: a copy in the block the critical-energy
-    /// kernel reads (with C1 and the positions) and for the generic loops.
+    /// B, as in the first D² words of `moments`: a copy for the generic loops and the split
+    /// work (`node_matrices`).
     pub b: SMatrix<f64, D, D>,
     pub c1: SMatrix<f64, D, D>,
-    /// The node's current and reference positions (vector pre-pass only): with B and C1
-    /// before them, all the critical-energy force kernel reads of a neighbour.
+    /// The node's current and reference positions (vector pre-pass only; u of the moment
+    /// record).
     pub y: SVector<f64, D>,
     pub x: SVector<f64, D>,
     pub h: SMatrix<f64, D, D>,
@@ -123,19 +122,12 @@ pub struct CorrespondencePoint<const D: usize> {
 
 // The force kernels' view of the record, in 2D and 3D.
 const _: () = {
-    use simd_correspondence::{
-        record_block, record_c1, record_moments, record_read, record_x, record_y,
-    };
-    use std::mem::{offset_of, size_of};
+    use simd_correspondence::record_moments;
+    use std::mem::offset_of;
     macro_rules! check_record {
         ($d:literal) => {{
             type Record = CorrespondencePoint<$d>;
             assert!(offset_of!(Record, moments) == 8 * record_moments($d));
-            assert!(offset_of!(Record, b) == 8 * record_block($d));
-            assert!(offset_of!(Record, c1) == 8 * (record_block($d) + record_c1($d)));
-            assert!(offset_of!(Record, y) == 8 * (record_block($d) + record_y($d)));
-            assert!(offset_of!(Record, x) == 8 * (record_block($d) + record_x($d)));
-            assert!(size_of::<Record>() >= 8 * (record_block($d) + record_read($d)));
         }};
     }
     check_record!(2);
@@ -362,6 +354,26 @@ impl Correspondence {
         }
     }
 
+    /// The constants of the split-work kernel from node i's point state and its matrices at
+    /// the previous evaluation (`node_matrices`): ½ (B + B') column-major, and ½ C1 and
+    /// ½ C1' as lower triangles (the order of `simd_correspondence::lower`).
+    fn work_matrices<const D: usize>(
+        p: &CorrespondencePoint<D>,
+        previous: &[f64],
+    ) -> ([f64; 9], [f64; 6], [f64; 6]) {
+        let (b, c1) = (p.b.as_slice(), p.c1.as_slice());
+        let mut mean_b = [0.0; 9];
+        for k in 0..D * D {
+            mean_b[k] = (b[k] + previous[k]) * 0.5;
+        }
+        let (mut half, mut half_prev) = ([0.0; 6], [0.0; 6]);
+        for (e, (r, c)) in simd_correspondence::lower::<D>().enumerate() {
+            half[e] = 0.5 * c1[D * c + r];
+            half_prev[e] = 0.5 * previous[D * D + D * c + r];
+        }
+        (mean_b, half, half_prev)
+    }
+
     /// Non-uniform deformation state z = Y − F ξ (Eq. 14), as (Y − ξ) − H ξ.
     #[inline(always)]
     fn z<const D: usize>(p: &CorrespondencePoint<D>, xi: &Vector<D>, y: &Vector<D>) -> Vector<D> {
@@ -485,6 +497,7 @@ impl<const D: usize> Material<D> for Correspondence {
     const CENTRAL: bool = false;
     const NEEDS_XI: bool = true;
     const FACTORED_OWN_HALF: bool = true;
+    const NODE_MATRIX_WORDS: usize = 2 * D * D;
     const NODE_BYTES: usize = super::stabilisation_memo::SLOT_BYTES;
 
     /// Checks every shape tensor with all bonds intact.
@@ -564,6 +577,33 @@ impl<const D: usize> Material<D> for Correspondence {
             - self.half(j, pj, &nxi, &ny, b.ref_len) * (b.phi_ji * b.mu_ji)
     }
 
+    /// B and C1, column-major.
+    #[inline(always)]
+    fn node_matrices(&self, pi: &Self::Point, out: &mut [f64]) {
+        out[..D * D].copy_from_slice(pi.b.as_slice());
+        out[D * D..2 * D * D].copy_from_slice(pi.c1.as_slice());
+    }
+
+    /// ½ (T_prev + T)·Δη = ω φ_ij (½ (B_i + B'_i) ξ + ½ (C1_i η + C1'_i η'))·Δη, with B'_i,
+    /// C1'_i node i's matrices at the previous evaluation and η' = η − Δη (the
+    /// trapezoidal rule of `damage::critical_energy` on node i's half: T linear in ξ, η).
+    #[inline(always)]
+    fn own_half_work(
+        &self,
+        i: usize,
+        b: &BondGeom<D>,
+        pi: &Self::Point,
+        previous: &[f64],
+        step: &Vector<D>,
+    ) -> f64 {
+        let b_prev = SMatrix::<f64, D, D>::from_column_slice(&previous[..D * D]);
+        let c1_prev = SMatrix::<f64, D, D>::from_column_slice(&previous[D * D..2 * D * D]);
+        let eta = b.y - b.xi;
+        let eta_prev = eta - step;
+        let mean = ((pi.b + b_prev) * 0.5) * b.xi + (pi.c1 * eta + c1_prev * eta_prev) * 0.5;
+        self.omega(i, b.ref_len) * b.phi_ij * mean.dot(step)
+    }
+
     /// ω_i φ_ij μ_ij V_j: node i's half of the pair force is this times B_i ξ + C1_i η.
     #[inline(always)]
     fn own_half_weight(&self, i: usize, b: &BondGeom<D>) -> f64 {
@@ -610,8 +650,7 @@ impl<const D: usize> Material<D> for Correspondence {
         let sums = unsafe { simd_correspondence::correspondence_sums(nb, &law, w, large) };
         let (i, family) = (nb.i, family as u64);
         let vector = |v: &[f64]| SVector::<f64, D>::from_fn(|a, _| v[a]);
-        // The positions (u of the moment record; the critical-energy kernel reads them from
-        // this record), a detached node's too.
+        // The positions (u of the moment record), a detached node's too.
         point.y = vector(&nb.current[D * i..]);
         point.x = vector(&self.reference[D * i..]);
         // A detached node: no force state, nothing kept to reuse (its C1 is zero), its
@@ -677,9 +716,9 @@ impl<const D: usize> Material<D> for Correspondence {
 
     /// The neighbours' moment records summed on four bonds at a time, the memo of the C1 sums
     /// (summed again when a version changed), then `moment_force`: the engine's factored loop
-    /// with the other halves regrouped. Under a uniform critical-energy law (`nb.work`) both
-    /// halves of each bond with its work record, as the engine's loop for laws that decide on
-    /// work.
+    /// with the other halves regrouped. Under a uniform critical-energy law (`nb.work`) also
+    /// each entry's own half of the work (split work, `own_half_work`), returning the number
+    /// of entries that may fail in place of the bonds broken.
     unsafe fn vector_force(
         &self,
         nb: &mut NodeBonds,
@@ -689,20 +728,20 @@ impl<const D: usize> Material<D> for Correspondence {
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
         // SAFETY: `CorrespondencePoint` is `repr(C)` of f64 and u64 fields only (no padding),
-        // laid out as `simd_correspondence::record_*` say (checked at compile time).
+        // its moment record where `simd_correspondence::record_moments` says (checked at
+        // compile time).
         let flat = unsafe {
             std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
         };
-        if let Some(energy) = nb.work {
-            // Both halves per bond and the vector work record (four words per bond) from the
-            // previous positions, which the engine keeps for this law.
-            if nb.previous.len() != nb.current.len() || nb.history.len() != 4 * nb.neighbors.len() {
-                return None;
-            }
-            // SAFETY: forwarded from the caller; the record and previous positions checked.
-            return Some(unsafe {
-                simd_correspondence::correspondence_force_work(nb, &law, w, &energy, flat, stride)
-            });
+        // Under a critical energy the entries' own halves of the work (one word per bond,
+        // split work), from node i's matrices now and at the previous evaluation and the
+        // previous positions, which the engine keeps for this law.
+        if nb.work.is_some()
+            && (nb.previous.len() != nb.current.len()
+                || nb.history.len() != nb.neighbors.len()
+                || nb.matrices.len() != 2 * D * D)
+        {
+            return None;
         }
         let (i, pi) = (nb.i, &points[nb.i]);
         // What only the next node's own force pass reads: a line of its record, its memo.
@@ -727,7 +766,28 @@ impl<const D: usize> Material<D> for Correspondence {
             }
         };
         let f = self.moment_force::<D>(i, &m, &memo, pi);
-        Some((std::array::from_fn(|a| if a < D { f[a] } else { 0.0 }), 0))
+        let flagged = match nb.work {
+            Some(energy) => {
+                let (mean_b, half_c1, half_c1_prev) = Self::work_matrices::<D>(pi, nb.matrices);
+                // SAFETY: forwarded from the caller; the record and previous positions
+                // checked above.
+                unsafe {
+                    simd_correspondence::correspondence_own_work(
+                        nb,
+                        &law,
+                        w,
+                        &energy,
+                        &mean_b,
+                        [&half_c1, &half_c1_prev],
+                    )
+                }
+            }
+            None => 0,
+        };
+        Some((
+            std::array::from_fn(|a| if a < D { f[a] } else { 0.0 }),
+            flagged,
+        ))
     }
 
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S

@@ -142,8 +142,35 @@ pub trait Material<const D: usize>: Sync + Send {
     /// deterministic, but they differ from the per-bond `pair_force` sum by round-off.
     ///
     /// Damage laws that record the work of each pair force (`DamageLaw::ON_WORK`) need the
-    /// full pair force per bond: with them the engine uses `pair_force` regardless.
+    /// full pair force per bond: with them the engine uses `pair_force` regardless, unless
+    /// the law splits the work between a bond's entries (`DamageLaw::SPLITS_WORK`).
     const FACTORED_OWN_HALF: bool = false;
+    /// Words per node of the matrices through which node i's own half is linear in the bond's
+    /// ξ and η, T_i⟨ξ⟩ = ω (B_i ξ + C1_i η) (0: the model's halves are not of that form).
+    /// Non-zero makes the pair force `damage::BondForce::NodeLinear`: a critical energy with
+    /// one w_c then integrates each half's work apart (`own_half_work`), and the engine keeps
+    /// the matrices of the previous evaluation per node (`State::previous_matrices`).
+    const NODE_MATRIX_WORDS: usize = 0;
+
+    /// Node i's matrices (`NODE_MATRIX_WORDS` words) from its point state.
+    #[inline(always)]
+    fn node_matrices(&self, _pi: &Self::Point, _out: &mut [f64]) {}
+
+    /// The work of node i's own half of bond i→j since the previous evaluation (intact
+    /// halves; per unit volume squared, as the pair force's), ½ (T_prev + T)·Δη with
+    /// T = ω φ_ij (B_i ξ + C1_i η) from the point state and T_prev from node i's matrices
+    /// at the previous evaluation (`previous`) and η − Δη; Δη is `step`.
+    #[inline(always)]
+    fn own_half_work(
+        &self,
+        _i: usize,
+        _bond: &BondGeom<D>,
+        _pi: &Self::Point,
+        _previous: &[f64],
+        _step: &Vector<D>,
+    ) -> f64 {
+        unimplemented!("own_half_work of a model without NODE_MATRIX_WORDS")
+    }
 
     /// Per-node constants that depend on the families (LPS weighted volume m); called once
     /// before the run, with all bonds intact. Fails, naming the node, when a node cannot be
@@ -279,7 +306,8 @@ pub trait Material<const D: usize>: Sync + Send {
 
     /// Optional AVX2 force pass of one node (2D or 3D, `nb.dim`; uniform grid, one critical
     /// stretch, or the uniform law `nb` carries: softening, critical energy): its force
-    /// density (z = 0 in 2D) and the bonds it broke, or `None` to use the generic loop.
+    /// density (z = 0 in 2D) and the bonds it broke (with split work, the entries that may
+    /// fail: `DamageLaw::SPLITS_WORK`), or `None` to use the generic loop.
     ///
     /// # Safety
     /// As for `vector_prepass`.

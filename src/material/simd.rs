@@ -52,14 +52,17 @@ pub struct NodeBonds<'a> {
     /// `with_softening`); only the PMB kernel implements it.
     pub softening: Option<UniformSoftening>,
     /// A uniform critical-energy law that this pass applies instead of a critical stretch
-    /// (see `with_work`); the PMB and LPS force kernels implement it.
+    /// (see `with_work`); the PMB, LPS and correspondence force kernels implement it.
     pub work: Option<UniformCriticalEnergy>,
     /// The family's history words: one per bond (the largest stretch) when `softening`, the
     /// work records when `work` (see `with_work`).
     pub history: &'a mut [f64],
     /// Current positions at the previous force evaluation, flat as `current` (empty unless
-    /// `with_previous`): the vector work record's displacement increments.
+    /// `with_previous`): the work's displacement increments.
     pub previous: &'a [f64],
+    /// Node i's own-half matrices at the previous evaluation (`Material::node_matrices`;
+    /// empty unless `with_previous` gives them): split work.
+    pub matrices: &'a [f64],
 }
 
 impl<'a> NodeBonds<'a> {
@@ -86,13 +89,16 @@ impl<'a> NodeBonds<'a> {
             work: None,
             history: &mut [],
             previous: &[],
+            matrices: &[],
         }
     }
 
-    /// The same family with the positions of the previous evaluation (a non-central model's
-    /// work record under `with_work`).
-    pub fn with_previous(mut self, previous: &'a [f64]) -> Self {
+    /// The same family with the positions of the previous evaluation and node i's own-half
+    /// matrices then (a non-central model's work under `with_work`; the matrices only for
+    /// split work, else empty).
+    pub fn with_previous(mut self, previous: &'a [f64], matrices: &'a [f64]) -> Self {
         self.previous = previous;
+        self.matrices = matrices;
         self
     }
 
@@ -137,11 +143,11 @@ impl<'a> NodeBonds<'a> {
     }
 
     /// The same family under a uniform critical-energy law with its work records (none for a
-    /// linear bond, two words per bond for another central force, four for a vector force;
-    /// `damage::critical_energy`). Failure is then decided from the work in the force pass,
-    /// not from the stretch.
+    /// linear bond, two words per bond for another central force, four for a vector force,
+    /// one for split work; `damage::critical_energy`). Failure is then decided from the work
+    /// (in the force pass, or after it with split work), not from the stretch.
     pub fn with_work(mut self, law: UniformCriticalEnergy, history: &'a mut [f64]) -> Self {
-        debug_assert!([0, 2, 4]
+        debug_assert!([0, 1, 2, 4]
             .map(|w| w * self.neighbors.len())
             .contains(&history.len()));
         self.s0 = None;

@@ -5,11 +5,11 @@
 //! (`moment_*`: B, g, u and C1's version), from which the model forms the other halves
 //! ω φ V (B_j ξ + C1_j η) and the own-half sum Σ s η without a product per bond (see
 //! `Correspondence::vector_force` and `Material::FACTORED_OWN_HALF`);
-//! the force pass under one critical energy evaluates both halves of each bond,
-//! T = ω φ (B_i ξ + C1_i η) + ω φ (B_j ξ + C1_j η) (Eq. 8 with Eq. 14 through B = A − C1 H),
-//! records its work w += ½ (T_prev + T)·Δη in the bond's vector work record [w, T] (Foster,
-//! Silling & Chen 2011; seed 002 Eq. 6; seed 004 Eqs. 16–18, `damage::critical_energy`) and
-//! breaks the bonds with w ≥ w_c φ̄.
+//! under one critical energy the same force pass, then each entry's own half of the bond work,
+//! w_i += ½ (T_prev + T)·Δη with T = ω φ (B_i ξ + C1_i η) (Eq. 8 with Eq. 14 through
+//! B = A − C1 H) from node i's matrices now and at the previous evaluation (Foster, Silling &
+//! Chen 2011; seed 002 Eq. 6; seed 004 Eqs. 16–18, `damage::critical_energy`); the engine
+//! breaks a bond when w_i + w_j ≥ w_c φ̄ (`ForceEngine`'s split work).
 //!
 //! Same terms, failure rules and partial-volume factor as the generic loops; the sums of
 //! products are fused multiply–adds (one rounding instead of two), and the order of a node's
@@ -18,17 +18,14 @@
 //! differ from the generic loop by round-off (10⁻¹⁴ of the forces; the moment form's grows
 //! with the body's size over the horizon, see `Correspondence::moment_force`), and the
 //! quantities that decide failure (|y|, the stretch, the work update from the pair force) are
-//! computed in the generic loop's order. The critical-energy pass forms a bond's two halves
-//! apart, in one order, and adds them scaled (in its lanes and its tail alike), so that the
-//! entries i→j and j→i get exactly opposite pair forces and record the same work: both ends
-//! decide the bond alike, as in the generic loop. The kernels run only where the CPU has both
-//! AVX2 and FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the
-//! generic loop and checks that the two entries of every bond agree.
+//! computed in the generic loop's order. The kernels run only where the CPU has both AVX2 and
+//! FMA (`simd::fma_available`). `tests/suite/kernels.rs` compares them with the generic loop
+//! and checks that the two entries of every bond agree.
 //!
 //! Loads: the moment pass reads each neighbour's record as whole 256-bit rows (two cache
-//! lines in 3D); the pre-pass and the critical-energy pass read positions, B and C1 as
-//! 128-bit pairs, two bonds per 256-bit register, interleaved with in-lane unpacks (no
-//! lane-crossing shuffle, never a byte past a node's record). The kernels are generic over
+//! lines in 3D); the pre-pass and the own-half work pass read positions as 128-bit pairs, two
+//! bonds per 256-bit register, interleaved with in-lane unpacks (no lane-crossing shuffle,
+//! never a byte past a node's position). The kernels are generic over
 //! the dimension D (`NodeBonds::dim`): vectors are D lanes, matrices D×D column-major; in 2D
 //! the sums returned and the scalar tails pad the third component with zero.
 
@@ -69,29 +66,6 @@ impl CorrespondenceLaw<'_> {
         );
         std::array::from_fn(|a| xj[a] - xi[a])
     }
-}
-
-/// Where the force kernels find a node's entries in its point record of dimension `d` (in f64
-/// words; the layout of `CorrespondencePoint`, checked against these at compile time).
-///
-/// The critical-energy force kernel reads a block from word `record_block` on: B
-/// column-major from its start, C1 from `record_c1`, the current position from `record_y`,
-/// the reference position from `record_x`, up to `record_read` (exclusive; all four relative
-/// to the block).
-pub const fn record_block(_d: usize) -> usize {
-    MOMENT_WORDS + 8
-}
-pub const fn record_c1(d: usize) -> usize {
-    d * d
-}
-pub const fn record_y(d: usize) -> usize {
-    2 * d * d
-}
-pub const fn record_x(d: usize) -> usize {
-    2 * d * d + d
-}
-pub const fn record_read(d: usize) -> usize {
-    2 * d * d + 2 * d
 }
 
 /// The force kernel under a critical stretch reads a neighbour's moment record, from word
@@ -226,47 +200,36 @@ pub unsafe fn correspondence_moments(
     unreachable!("fma_available() is false off x86-64")
 }
 
-/// Force pass of node i under a uniform critical-energy law: the force density of the bonds
-/// that hold and the bonds broken, each bond's work recorded in `nb.history` (four words per
-/// bond: w, T) from the previous positions `nb.previous`.
+/// Split work of node i under a uniform critical-energy law: adds each intact bond's own
+/// half of the work since the previous evaluation to its word in `nb.history`,
+/// w_i += ω φ (½ (B + B') ξ + ½ C1 η + ½ C1' η')·Δη (the generic
+/// `Correspondence::own_half_work`, with η' = η − Δη from the previous positions
+/// `nb.previous`), and returns how many entries may fail with their bond's other half
+/// (w_i ≥ ½ w_c φ̄, less a margin for rounding). `mean_b` is ½ (B + B') column-major,
+/// `half_c1` ½ C1 and ½ C1' as lower triangles (C1 only with zero-energy control).
 ///
 /// # Safety
-/// As for `correspondence_sums`; `points.len() >= stride * nodes`,
-/// `stride >= record_block(nb.dim) + record_read(nb.dim)`,
-/// `nb.history.len() == 4 * nb.neighbors.len()` and `nb.previous.len() == nb.current.len()`.
-pub unsafe fn correspondence_force_work(
+/// As for `correspondence_sums`; `nb.history.len() == nb.neighbors.len()` and
+/// `nb.previous.len() == nb.current.len()`.
+pub unsafe fn correspondence_own_work(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
     w: &UniformWeights,
     energy: &UniformCriticalEnergy,
-    points: &[f64],
-    stride: usize,
-) -> ([f64; 3], u64) {
-    debug_assert_eq!(nb.history.len(), 4 * nb.neighbors.len());
+    mean_b: &[f64; 9],
+    half_c1: [&[f64; 6]; 2],
+) -> u64 {
+    debug_assert_eq!(nb.history.len(), nb.neighbors.len());
     debug_assert_eq!(nb.previous.len(), nb.current.len());
-    // The records' blocks from B on: the kernel's offsets are relative to them.
-    let points = &points[record_block(nb.dim)..];
     #[cfg(target_arch = "x86_64")]
     {
         let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
-        if law.control {
-            avx::with_flags!(
-                avx::force_work,
-                dim,
-                [true],
-                hhb,
-                law,
-                (nb, law, w, energy, points, stride)
-            )
-        } else {
-            avx::with_flags!(
-                avx::force_work,
-                dim,
-                [false],
-                hhb,
-                law,
-                (nb, law, w, energy, points, stride)
-            )
+        let args = (nb, law, w, energy, mean_b, half_c1);
+        // C1 changes only with K: most steps it is C1' and ½ C1 (η + η') one product.
+        match (law.control, half_c1[0] != half_c1[1]) {
+            (true, true) => avx::with_flags!(avx::own_work, dim, [true, true], hhb, law, (args)),
+            (true, false) => avx::with_flags!(avx::own_work, dim, [true, false], hhb, law, (args)),
+            (false, _) => avx::with_flags!(avx::own_work, dim, [false, false], hhb, law, (args)),
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -276,9 +239,8 @@ pub unsafe fn correspondence_force_work(
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::*;
-    use crate::damage::{DamageLaw, Work};
     use crate::material::simd::avx::{intact, phi_of, prefetch, sum};
-    use crate::material::simd::{length, tail};
+    use crate::material::simd::tail;
     use crate::state::{BROKEN, INTACT};
     use std::arch::x86_64::*;
 
@@ -329,77 +291,12 @@ mod avx {
         std::array::from_fn(|a| v[a])
     }
 
-    /// The neighbours' current and reference positions (y, x) from their records, one lane
-    /// per neighbour, and in 3D with zero-energy control C1's entry (2, 2), which shares a
-    /// 128-bit pair with y₀ (zero otherwise).
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn positions<const D: usize, const CONTROL: bool>(
-        p: &[*const f64; 4],
-    ) -> ([__m256d; D], [__m256d; D], __m256d) {
-        let (ry, rx) = (record_y(D), record_x(D));
-        let zero = _mm256_setzero_pd();
-        if D == 2 {
-            let (y0, y1) = pair(p, ry);
-            let (x0, x1) = pair(p, rx);
-            (first([y0, y1, zero]), first([x0, x1, zero]), zero)
-        } else if CONTROL {
-            let (c22, y0) = pair(p, ry - 1);
-            let (y1, y2) = pair(p, ry + 1);
-            let (x0, _) = pair(p, rx);
-            let (x1, x2) = pair(p, rx + 1);
-            (first([y0, y1, y2]), first([x0, x1, x2]), c22)
-        } else {
-            let (y0, y1) = pair(p, ry);
-            let (y2, x0) = pair(p, ry + 2);
-            let (x1, x2) = pair(p, rx + 1);
-            (first([y0, y1, y2]), first([x0, x1, x2]), zero)
-        }
-    }
-
     /// The index of entry (r, c) of a symmetric D×D matrix in the order of `lower`: columns
     /// 0..c hold D, D − 1, … entries.
     #[inline(always)]
     const fn lower_index<const D: usize>(r: usize, c: usize) -> usize {
         let (r, c) = if r >= c { (r, c) } else { (c, r) };
         c * (2 * D - c + 1) / 2 + (r - c)
-    }
-
-    /// acc += B u + C1 v with the neighbours' B and C1 (`c22` from `positions`), one lane per
-    /// neighbour. C1 is symmetric (λ tr(K⁻¹) I + 2μ K⁻¹ of a symmetric K, or c_s I), so only
-    /// its lower triangle is read: in 3D 11 pairs of entries instead of 13 with the positions.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn add_matrices<const D: usize, const CONTROL: bool>(
-        p: &[*const f64; 4],
-        u: &[__m256d; D],
-        v: &[__m256d; D],
-        c22: __m256d,
-        acc: &mut [__m256d; D],
-    ) {
-        // B column-major: entry m is (m % D, m / D).
-        for q in 0..D * D / 2 {
-            let (e0, e1) = pair(p, 2 * q);
-            for (m, e) in [(2 * q, e0), (2 * q + 1, e1)] {
-                acc[m % D] = _mm256_fmadd_pd(e, u[m / D], acc[m % D]);
-            }
-        }
-        let c1 = record_c1(D);
-        if D == 2 {
-            if CONTROL {
-                let (c00, c10) = pair(p, c1);
-                let (_, c11) = pair(p, c1 + 2);
-                add_symmetric::<D>(&[c00, c10, c11, c11, c11, c11], v, acc);
-            }
-        } else {
-            let (b22, c00) = pair(p, 8);
-            acc[2] = _mm256_fmadd_pd(b22, u[2], acc[2]);
-            if CONTROL {
-                let (c10, c20) = pair(p, c1 + 1);
-                let (c11, c21) = pair(p, c1 + 4);
-                add_symmetric::<D>(&[c00, c10, c20, c11, c21, c22], v, acc);
-            }
-        }
     }
 
     /// acc += C v for a symmetric C given by its lower triangle (the order of `lower`; words
@@ -414,20 +311,6 @@ mod avx {
         for r in 0..D {
             for (col, v) in v.iter().enumerate() {
                 acc[r] = _mm256_fmadd_pd(c[lower_index::<D>(r, col)], *v, acc[r]);
-            }
-        }
-    }
-
-    /// Prefetches the cache lines of each record the critical-energy force kernel reads
-    /// (words 0..`record_read(D)` of the block, which starts a cache line: three lines in 3D,
-    /// two in 2D).
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn prefetch_records<const D: usize>(points: *const f64, stride: usize, n: [usize; 4]) {
-        for k in n {
-            let record = points.add(k * stride) as *const i8;
-            for line in 0..(8 * record_read(D)).div_ceil(64) {
-                _mm_prefetch::<_MM_HINT_T0>(record.add(64 * line));
             }
         }
     }
@@ -480,17 +363,6 @@ mod avx {
         } else {
             x
         }
-    }
-
-    /// ω(|ξ|) φ(|ξ|) on four lanes: the generic ω · (φ μ) with μ = 1.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn omega_phi<const HHB: bool, const INVERSE: bool>(
-        law: &CorrespondenceLaw,
-        w: &UniformWeights,
-        l: __m256d,
-    ) -> __m256d {
-        times_omega::<INVERSE>(law, l, phi_of::<HHB>(w, l))
     }
 
     /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V).
@@ -745,34 +617,6 @@ mod avx {
         (m, version_sum)
     }
 
-    /// B ξ + C1 η of one bond from a record `m` (B then C1, column-major) as the lanes of
-    /// `force_work` compute it: each row m₀ξ₀, then fused multiply–adds of B's other columns
-    /// and of C1's lower triangle (C1 is symmetric), column by column; zero past D. The same
-    /// bits as a lane, so that a bond in one end's tail and in the other end's groups gets
-    /// the same pair force from both.
-    #[inline(always)]
-    fn linear_half<const D: usize, const CONTROL: bool>(
-        m: &[f64],
-        xi: &[f64; 3],
-        eta: &[f64; 3],
-    ) -> [f64; 3] {
-        let c1 = &m[record_c1(D)..];
-        let lower = |r: usize, c: usize| c1[D * r.min(c) + r.max(c)];
-        let mut v = [0.0; 3];
-        for r in 0..D {
-            v[r] = m[r] * xi[0];
-            for c in 1..D {
-                v[r] = m[D * c + r].mul_add(xi[c], v[r]);
-            }
-            if CONTROL {
-                for (c, e) in eta.iter().enumerate().take(D) {
-                    v[r] = lower(r, c).mul_add(*e, v[r]);
-                }
-            }
-        }
-        v
-    }
-
     /// Lane k of v.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
@@ -782,185 +626,97 @@ mod avx {
         a
     }
 
-    /// The lanes of `bits` whose bond is in tension (|y| > |ξ|, |y| in the generic order).
-    #[cold]
-    #[inline(never)]
-    fn in_tension(bits: i32, d: [[f64; 4]; 3], l: [f64; 4]) -> i32 {
-        let mut out = 0;
-        for lane in 0..4 {
-            let y = [d[0][lane], d[1][lane], d[2][lane]];
-            if bits & (1 << lane) != 0 && length(&y) - l[lane] > 0.0 {
-                out |= 1 << lane;
-            }
-        }
-        out
-    }
+    /// The lower bound on a bond's own half of the work above which the entry may fail with
+    /// the other half: ½ w_c φ̄ less 10⁻⁹ of it (w_i + w_j ≥ w_c φ̄ needs one half at least
+    /// ½ w_c φ̄; the margin covers the rounding of the sum).
+    const HALF_MARGIN: f64 = 0.5 * (1.0 - 1e-9);
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn force_work<
+    pub(super) unsafe fn own_work<
         const D: usize,
         const CONTROL: bool,
+        const NEW_C1: bool,
         const HHB: bool,
         const INVERSE: bool,
     >(
-        nb: &mut NodeBonds,
-        law: &CorrespondenceLaw,
-        w: &UniformWeights,
-        energy: &UniformCriticalEnergy,
-        points: &[f64],
-        stride: usize,
-    ) -> ([f64; 3], u64) {
+        (nb, law, w, energy, mean_b, half_c1): (
+            &mut NodeBonds,
+            &CorrespondenceLaw,
+            &UniformWeights,
+            &UniformCriticalEnergy,
+            &[f64; 9],
+            [&[f64; 6]; 2],
+        ),
+    ) -> u64 {
         debug_assert_eq!(nb.dim, D);
+        // Local copies: the stores to the work words cannot alias them, so their entries
+        // stay in registers.
+        let (law, w) = (&law.clone(), &w.clone());
         let i = nb.i;
-        let previous = nb.previous.as_ptr();
+        let (current, previous) = (nb.current.as_ptr(), nb.previous.as_ptr());
         let (yi, xi_i, pi) = (
-            own::<D>(nb.current.as_ptr(), i),
+            own::<D>(current, i),
             own::<D>(law.reference.as_ptr(), i),
             own::<D>(previous, i),
         );
-        let base = points.as_ptr();
         let zero = _mm256_setzero_pd();
-        // Node i's B and C1's lower triangle (C1 is symmetric, see `add_matrices`), broadcast.
-        let entry = |m: usize| _mm256_set1_pd(*base.add(i * stride + m));
-        let mine_b: [__m256d; 9] = std::array::from_fn(|m| if m < D * D { entry(m) } else { zero });
-        let mut mine_c1 = [zero; 6];
-        for (e, (r, c)) in lower::<D>().enumerate() {
-            mine_c1[e] = entry(record_c1(D) + D * c + r);
-        }
-        let (half, wc, volume) = (
-            _mm256_set1_pd(0.5),
-            _mm256_set1_pd(energy.wc),
-            _mm256_set1_pd(w.node.volume),
-        );
-        let mut acc = [zero; D];
-        let mut broke = 0;
+        let m: [__m256d; 9] = std::array::from_fn(|k| _mm256_set1_pd(mean_b[k]));
+        let c: [[__m256d; 6]; 2] = half_c1.map(|h| h.map(|x| _mm256_set1_pd(x)));
+        let bound = _mm256_set1_pd(HALF_MARGIN * energy.wc);
+        let mut flagged = 0;
         let mut b = 0;
+        let words = nb.history.as_mut_ptr();
         while b + 4 <= nb.neighbors.len() {
             let j = neighbours(nb, b);
-            let p = j.map(|k| base.add(k * stride));
-            // The work records stream through the cache and evict the neighbours' records,
-            // whose loads the loop then waited on: fetch those of two groups on.
-            if b + 12 <= nb.neighbors.len() {
-                prefetch_records::<D>(base, stride, neighbours(nb, b + 8));
-            }
-            let (y, x, c22) = positions::<D, CONTROL>(&p);
-            let d: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(y[a], yi[a]));
+            let d = rows::<D>(current, j, &yi);
+            let xi = rows::<D>(law.reference.as_ptr(), j, &xi_i);
+            let dp = rows::<D>(previous, j, &pi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
+            prefetch::<512, _>(words.add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            // Intact and of non-zero length: the bonds the generic loop records work for.
-            let mut keep = _mm256_and_pd(
+            // Intact and of non-zero length: the bonds the generic loop visits.
+            let keep = _mm256_and_pd(
                 intact(nb.status, b),
                 _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
             );
-            let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(x[a], xi_i[a]));
-            let eta: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
-            // Each half's B ξ + C1 η apart, in the same order (`linear_half`): node i's from
-            // its broadcast entries, the neighbours' from a −0 start (a fused multiply–add
-            // onto −0 is the product itself, as the first product of node i's).
-            let mut own: [__m256d; D] = std::array::from_fn(|r| {
-                let mut v = _mm256_mul_pd(mine_b[r], xi[0]);
-                for c in 1..D {
-                    v = _mm256_fmadd_pd(mine_b[D * c + r], xi[c], v);
+            // t = ½ (B + B') ξ + ½ C1 η + ½ C1' η', then its work t·Δη.
+            let mut t: [__m256d; D] = std::array::from_fn(|r| {
+                let mut v = _mm256_mul_pd(m[r], xi[0]);
+                for col in 1..D {
+                    v = _mm256_fmadd_pd(m[D * col + r], xi[col], v);
                 }
                 v
             });
             if CONTROL {
-                add_symmetric::<D>(&mine_c1, &eta, &mut own);
+                let eta: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(d[a], xi[a]));
+                let eta_prev: [__m256d; D] = std::array::from_fn(|a| _mm256_sub_pd(dp[a], xi[a]));
+                if NEW_C1 {
+                    add_symmetric::<D>(&c[0], &eta, &mut t);
+                    add_symmetric::<D>(&c[1], &eta_prev, &mut t);
+                } else {
+                    let sum = std::array::from_fn(|a| _mm256_add_pd(eta[a], eta_prev[a]));
+                    add_symmetric::<D>(&c[0], &sum, &mut t);
+                }
             }
-            let mut other = [_mm256_set1_pd(-0.0); D];
-            add_matrices::<D, CONTROL>(&p, &xi, &eta, c22, &mut other);
-            // The pair force T = ω φ (both halves), the generic `pair_force` without V; its
-            // third component and that of Δη are zero in 2D (the record's padding). Each half
-            // scaled, then added: from j's end the same bond gives exactly −T (its halves are
-            // these negated, in the other order), so both entries record the same work.
-            let wp = omega_phi::<HHB, INVERSE>(law, w, l);
-            let force: [__m256d; 3] = std::array::from_fn(|a| {
-                if a < D {
-                    _mm256_add_pd(_mm256_mul_pd(own[a], wp), _mm256_mul_pd(other[a], wp))
-                } else {
-                    zero
-                }
-            });
-            // Δη = y − (y_j − y_i at the previous evaluation).
-            let dp = rows::<D>(previous, j, &pi);
-            let step: [__m256d; 3] = std::array::from_fn(|a| {
-                if a < D {
-                    _mm256_sub_pd(d[a], dp[a])
-                } else {
-                    zero
-                }
-            });
-            // The records [w, T] of the four bonds, as lanes; the records four groups on are
-            // prefetched (the stream of 64 bytes per bond read and written each evaluation
-            // otherwise stalls the loop on memory; a prefetch past the end is harmless).
-            let hp = nb.history.as_mut_ptr().add(4 * b);
-            prefetch::<512, _>(hp);
-            prefetch::<576, _>(hp);
-            let rec = [hp as *const f64, hp.add(4), hp.add(8), hp.add(12)];
-            let (w_old, f0) = pair(&rec, 0);
-            let (f1, f2) = pair(&rec, 2);
-            // `accumulate_work`: w += ½ ((T_prev + T)·Δη), in its order.
-            let dot = _mm256_add_pd(
-                _mm256_add_pd(
-                    _mm256_mul_pd(_mm256_add_pd(f0, force[0]), step[0]),
-                    _mm256_mul_pd(_mm256_add_pd(f1, force[1]), step[1]),
-                ),
-                _mm256_mul_pd(_mm256_add_pd(f2, force[2]), step[2]),
-            );
-            let w_new = _mm256_add_pd(w_old, _mm256_mul_pd(half, dot));
-            // Lanes outside `keep` keep their record.
-            let ws = _mm256_blendv_pd(w_old, w_new, keep);
-            let fs = [
-                _mm256_blendv_pd(f0, force[0], keep),
-                _mm256_blendv_pd(f1, force[1], keep),
-                _mm256_blendv_pd(f2, force[2], keep),
-            ];
-            let (lo_a, hi_a) = (_mm256_unpacklo_pd(ws, fs[0]), _mm256_unpackhi_pd(ws, fs[0]));
-            let (lo_b, hi_b) = (
-                _mm256_unpacklo_pd(fs[1], fs[2]),
-                _mm256_unpackhi_pd(fs[1], fs[2]),
-            );
-            _mm256_storeu_pd(hp, _mm256_permute2f128_pd::<0x20>(lo_a, lo_b));
-            _mm256_storeu_pd(hp.add(4), _mm256_permute2f128_pd::<0x20>(hi_a, hi_b));
-            _mm256_storeu_pd(hp.add(8), _mm256_permute2f128_pd::<0x31>(lo_a, lo_b));
-            _mm256_storeu_pd(hp.add(12), _mm256_permute2f128_pd::<0x31>(hi_a, hi_b));
-            // `fails_on_work`: w ≥ w_c φ̄, φ̄ = ½(φ + φ), and in tension if `tension_only`.
-            let p = phi_of::<HHB>(w, l);
-            let over = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GE_OQ>(
-                    w_new,
-                    _mm256_mul_pd(wc, _mm256_mul_pd(half, _mm256_add_pd(p, p))),
-                ),
-                keep,
-            );
-            let mut bits = _mm256_movemask_pd(over);
+            let mut work = zero;
+            for r in 0..D {
+                work = _mm256_fmadd_pd(t[r], _mm256_sub_pd(d[r], dp[r]), work);
+            }
+            // w_i += ω φ t·Δη on the lanes kept (the others add ω φ · 0).
+            let phi = phi_of::<HHB>(w, l);
+            let wp = times_omega::<INVERSE>(law, l, phi);
+            let old = _mm256_loadu_pd(words.add(b));
+            let new = _mm256_fmadd_pd(wp, _mm256_and_pd(work, keep), old);
+            _mm256_storeu_pd(words.add(b), new);
+            let over = _mm256_cmp_pd::<_CMP_GE_OQ>(new, _mm256_mul_pd(bound, phi));
+            let bits = _mm256_movemask_pd(_mm256_and_pd(over, keep));
             if bits != 0 {
-                if energy.tension_only {
-                    let lanes3 =
-                        std::array::from_fn(|a| if a < D { lanes(d[a]) } else { [0.0; 4] });
-                    bits = in_tension(bits, lanes3, lanes(l));
-                }
-                if bits != 0 {
-                    broke += break_lanes(nb, b, bits);
-                    keep = _mm256_and_pd(keep, intact(nb.status, b));
-                }
-            }
-            // The generic loop's T V over the bonds that hold.
-            for a in 0..D {
-                acc[a] = _mm256_fmadd_pd(_mm256_and_pd(force[a], keep), volume, acc[a]);
+                flagged += bits.count_ones() as u64;
             }
             b += 4;
         }
-        let mut f = [0.0; 3];
-        for a in 0..D {
-            f[a] = sum(acc[a]);
-        }
-        let pts = |k: usize| &points[k * stride..k * stride + 2 * D * D];
         let at = |v: &[f64], k: usize| flat_position(v, D, k);
         for b in b..nb.neighbors.len() {
-            if nb.status[b] != INTACT {
-                continue;
-            }
             let j = nb.neighbors[b] as usize;
             let (yj, yi, pj, pi) = (
                 at(nb.current, j),
@@ -968,41 +724,36 @@ mod avx {
                 at(nb.previous, j),
                 at(nb.previous, i),
             );
-            let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
-            let len = length(&d);
-            if len <= 0.0 {
+            let d: [f64; 3] = std::array::from_fn(|a| yj[a] - yi[a]);
+            if nb.status[b] != INTACT || d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= 0.0 {
                 continue;
             }
-            // The generic loop's steps for one bond, in the lanes' arithmetic: T = ω φ (B_i ξ
-            // + C1_i η) + ω φ (B_j ξ + C1_j η), its work, failure, T V.
             let l = nb.ref_lengths[b];
-            let (om, p) = (law.omega(l), w.phi(l));
             let xi = law.xi::<D>(i, j);
-            let eta = [d[0] - xi[0], d[1] - xi[1], d[2] - xi[2]];
-            let (own_half, other) = (
-                linear_half::<D, CONTROL>(pts(i), &xi, &eta),
-                linear_half::<D, CONTROL>(pts(j), &xi, &eta),
-            );
-            let wp = om * p;
-            let force: [f64; 3] = std::array::from_fn(|a| own_half[a] * wp + other[a] * wp);
-            let step: [f64; 3] = std::array::from_fn(|a| d[a] - (pj[a] - pi[a]));
-            broke += energy.on_work(
-                i,
-                j,
-                Work::Vector { force, step },
-                len - l,
-                0.5 * (p + p),
-                nb.no_fail[i] || nb.no_fail[j],
-                &mut nb.history[4 * b..4 * b + 4],
-                &mut nb.status[b],
-            );
-            if nb.status[b] == BROKEN {
-                continue;
+            let dp: [f64; 3] = std::array::from_fn(|a| pj[a] - pi[a]);
+            let mut t = [0.0; 3];
+            for r in 0..D {
+                for col in 0..D {
+                    t[r] = mean_b[D * col + r].mul_add(xi[col], t[r]);
+                    if CONTROL {
+                        let e = lower_index::<D>(r, col);
+                        let (eta, eta_prev) = (d[col] - xi[col], dp[col] - xi[col]);
+                        if NEW_C1 {
+                            t[r] = half_c1[0][e].mul_add(eta, t[r]);
+                            t[r] = half_c1[1][e].mul_add(eta_prev, t[r]);
+                        } else {
+                            t[r] = half_c1[0][e].mul_add(eta + eta_prev, t[r]);
+                        }
+                    }
+                }
             }
-            for a in 0..D {
-                f[a] += force[a] * w.node.volume;
+            let work: f64 = (0..D).map(|r| t[r] * (d[r] - dp[r])).sum();
+            let (omega, phi) = (law.omega(l), w.phi(l));
+            nb.history[b] += omega * phi * work;
+            if nb.history[b] >= HALF_MARGIN * energy.wc * phi {
+                flagged += 1;
             }
         }
-        (f, broke)
+        flagged
     }
 }

@@ -178,8 +178,17 @@ pub const fn bond_force<const D: usize, M: Material<D>>() -> BondForce {
     match (M::CENTRAL, M::LINEAR_BOND) {
         (true, true) => BondForce::Linear,
         (true, false) => BondForce::Central,
+        (false, _) if M::NODE_MATRIX_WORDS > 0 => BondForce::NodeLinear,
         (false, _) => BondForce::Vector,
     }
+}
+
+/// Split work: whether an entry whose own half has done `half_work` may belong to a bond
+/// that fails, i.e. whether twice it (with a margin for rounding) reaches node i's threshold:
+/// w_i + w_j ≥ w_c φ̄ needs one of the two at least ½ w_c φ̄.
+#[inline(always)]
+fn may_fail<Dm: DamageLaw>(damage: &Dm, i: usize, half_work: f64, weight: f64) -> bool {
+    damage.fails_on_work(i, 1.0, weight, 2.0 * half_work * (1.0 + 1e-6))
 }
 
 /// History words per bond entry of law `Dm` with material `M`.
@@ -449,6 +458,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 BondForce::Linear => hw == 0,
                 BondForce::Central => hw == 2,
                 BondForce::Vector => hw == 4,
+                BondForce::NodeLinear => hw == 1,
             });
         let vector = if (s0.is_some() || softening.is_some() || work.is_some())
             && self.vector_kernels
@@ -519,6 +529,20 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             }));
         }
 
+        // Split work (`DamageLaw::SPLITS_WORK`): the force pass records each entry's own half
+        // of the work and flags the nodes with an entry that may reach w_c with its bond's
+        // other half; `resolve_split_work` then decides those bonds from both entries.
+        let split = Dm::SPLITS_WORK && bond_force::<D, M>() == BondForce::NodeLinear;
+        let words = M::NODE_MATRIX_WORDS;
+        let previous_matrices = std::mem::take(&mut state.previous_matrices);
+        let flagged: Vec<std::sync::Mutex<Vec<usize>>> = match split {
+            true => self.chunks.iter().map(|_| Default::default()).collect(),
+            false => Vec::new(),
+        };
+        let node_matrices = |i: usize| match split {
+            true => &previous_matrices[i * words..(i + 1) * words],
+            false => &[],
+        };
         let (material, points) = (&self.material, &self.points);
         let previous = &state.previous;
         // SAFETY: as for `flat` (empty unless a non-central model records work).
@@ -533,8 +557,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             &mut state.force[..],
         );
         let items = chunk_items(&self.chunks, &bond_ends, hw, arrays);
-        add(map_chunks(items, &|(nodes, status, history, forces)| {
+        let counts = map_chunks(items, &|(nodes, status, history, forces)| {
+            // Bonds broken, or with split work the entries that may fail.
             let mut broke = 0u64;
+            let mut flag = Vec::new();
             for (k, i) in nodes.clone().enumerate() {
                 let (r, status, history) =
                     family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
@@ -544,30 +570,43 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let s0 = decide.then_some(s0);
                     let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, s0)
                         .under(D, softening, work, history)
-                        .with_previous(previous_flat);
+                        .with_previous(previous_flat, node_matrices(i));
                     // SAFETY: AVX2 is available and neighbour indices are in bounds.
                     if let Some((f, nb_broken)) =
                         unsafe { material.vector_force(&mut nb, w, points) }
                     {
                         forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
                         broke += nb_broken;
+                        if split && nb_broken > 0 {
+                            flag.push(i);
+                        }
                         continue;
                     }
                 }
                 let pi = &points[i];
                 let mut f = Vector::<D>::zeros();
-                if M::FACTORED_OWN_HALF && !Dm::ON_WORK {
+                if M::FACTORED_OWN_HALF && (!Dm::ON_WORK || split) {
                     // The own halves through node i's matrices once: sum s ξ and s η
                     // over the family, evaluate only the other half per bond.
                     let (mut sum_xi, mut sum_eta) = (Vector::<D>::zeros(), Vector::<D>::zeros());
-                    broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
+                    let mine = node_matrices(i);
+                    let flags = sweep.walk::<M>(i, r, status, history, decide, |v| {
                         let g = &v.geom;
                         let s = material.own_half_weight(i, g);
                         sum_xi += g.xi * s;
                         sum_eta += (g.y - g.xi) * s;
                         f += material.other_half(i, v.j, g, &points[v.j]);
-                        0
+                        if !split {
+                            return 0;
+                        }
+                        let step = g.y - (previous[v.j] - previous[i]);
+                        v.history[0] += material.own_half_work(i, g, pi, mine, &step);
+                        may_fail(damage, i, v.history[0], 0.5 * (g.phi_ij + g.phi_ji)) as u64
                     });
+                    broke += flags;
+                    if flags > 0 {
+                        flag.push(i);
+                    }
                     forces[k] = f + material.own_half_force(i, pi, &sum_xi, &sum_eta);
                     continue;
                 }
@@ -636,8 +675,31 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 });
                 forces[k] = f;
             }
+            if !flag.is_empty() {
+                *flagged[nodes.start / NODE_CHUNK]
+                    .lock()
+                    .expect("not poisoned") = flag;
+            }
             broke
-        }));
+        });
+        if split {
+            let flagged = flagged
+                .into_iter()
+                .map(|m| m.into_inner().expect("not poisoned"));
+            let resolved = self.resolve_split_work(weights, damage, body, bonds, state, flagged);
+            add(resolved);
+            // Node i's matrices of this evaluation, for the next one's trapezoidal rule.
+            let mut matrices = previous_matrices;
+            matrices.resize(body.len() * words, 0.0);
+            matrices
+                .par_chunks_mut(words)
+                .zip(&self.points)
+                .for_each(|(out, p)| self.material.node_matrices(p, out));
+            state.previous_matrices = matrices;
+        } else {
+            add(counts);
+            state.previous_matrices = previous_matrices;
+        }
 
         if Dm::ON_WORK && !M::CENTRAL {
             state.previous.clone_from(&state.current);
@@ -646,6 +708,70 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         self.broke_in_chunk = per_chunk;
         state.broken += newly_broken;
         newly_broken
+    }
+
+    /// Split work: decides the bonds of the flagged nodes (per chunk, in node order) from
+    /// the sum of their two entries' words, w = w_i + w_j (the same sum from either end),
+    /// breaking both entries where `fails_on_work` says so unless an end is no-fail, and
+    /// taking the bond's pair force back from both ends' force densities: as with the
+    /// record of the whole pair's work, a bond does no work past the evaluation at which it
+    /// reaches w_c (kept for one more evaluation, the separation work of
+    /// `tests/suite/separation_work.rs` rose from 1.03 to 1.05 G0 in 3D). Returns the
+    /// entries broken per chunk.
+    fn resolve_split_work<W: Weights, Dm: DamageLaw>(
+        &self,
+        weights: &W,
+        damage: &Dm,
+        body: &Body<D>,
+        bonds: &Bonds,
+        state: &mut State<D>,
+        flagged: impl Iterator<Item = Vec<usize>>,
+    ) -> Vec<u64> {
+        let mut broke = vec![0u64; self.chunks.len()];
+        for i in flagged.flatten() {
+            for e in bonds.family(i) {
+                let (j, ref_len) = (bonds.neighbors[e] as usize, bonds.ref_lengths[e]);
+                let (phi_ij, phi_ji, _) = weights.weights(e, i, j, ref_len);
+                let weight = 0.5 * (phi_ij + phi_ji);
+                if state.status[e] != INTACT
+                    || !may_fail(damage, i, state.history[e], weight)
+                    || body.no_fail[i]
+                    || body.no_fail[j]
+                {
+                    continue;
+                }
+                let reverse = bonds
+                    .reverse(i, e)
+                    .expect("every bond is stored at both ends");
+                let work = state.history[e] + state.history[reverse];
+                let y = state.current[j] - state.current[i];
+                let len = y.norm();
+                if damage.fails_on_work(i, len - ref_len, weight, work) {
+                    state.status[e] = BROKEN;
+                    state.status[reverse] = BROKEN;
+                    broke[i / NODE_CHUNK] += 1;
+                    broke[j / NODE_CHUNK] += 1;
+                    let (_, _, vol_j) = weights.weights(e, i, j, ref_len);
+                    let (_, _, vol_i) = weights.weights(reverse, j, i, ref_len);
+                    let geom = BondGeom {
+                        ref_len,
+                        len,
+                        phi_ij,
+                        phi_ji,
+                        vol_j,
+                        mu_ij: 1.0,
+                        mu_ji: 1.0,
+                        y,
+                        xi: body.positions[j] - body.positions[i],
+                    };
+                    let (pi, pj) = (&self.points[i], &self.points[j]);
+                    let pair = self.material.pair_force(i, j, &geom, pi, pj);
+                    state.force[i] -= pair * vol_j;
+                    state.force[j] += pair * vol_i;
+                }
+            }
+        }
+        broke
     }
 
     /// Strain energy density W_i (J/m³) of every node at the state of the last `compute`.

@@ -83,6 +83,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         let damage = damage.into();
         let history_words = damage.history_words(crate::solver::bond_force::<D, M>());
         let keep_previous = damage.records_work() && !M::CENTRAL;
+        let splits_work = damage.splits_work(crate::solver::bond_force::<D, M>());
         let engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
         let dt_stable = engine.stable_time_step(&body, &bonds);
         let densities = (0..body.len())
@@ -92,6 +93,11 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         let mut state = State::new(&body, &bonds, history_words);
         if keep_previous {
             state.previous = state.current.clone();
+        }
+        if splits_work {
+            // As the vector work record: the first evaluation's work starts from the
+            // unloaded bond, T_prev = 0 (zero matrices; η' = 0 at the reference positions).
+            state.previous_matrices = vec![0.0; body.len() * M::NODE_MATRIX_WORDS];
         }
         let mut sim = Simulation {
             body,

@@ -172,6 +172,22 @@ fn explicit_run_with_crack_tip_continued_after_a_stop_is_byte_identical() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Correspondence under one critical energy keeps each entry's own half of the bond work and
+/// each node's matrices of the previous evaluation (split work): both cross the restart.
+#[test]
+fn correspondence_critical_energy_run_continued_after_a_stop_is_byte_identical() {
+    let dir = scratch("split-work");
+    let text = deck_text(3.09e9, "steps = 600", "checkpoint_interval = 100").replace(
+        "type = \"pmb\"",
+        "type = \"correspondence\"\npoisson_ratio = 0.3\n\
+         zero_energy_control = { type = \"wan\", coefficient = 1.0 }\n\
+         damage = { type = \"critical_energy\" }",
+    );
+    let ld = load(&dir, "plate.toml", &text);
+    assert_restart_matches(&ld, &dir, 330);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn run_with_a_free_impactor_continued_after_a_stop_is_byte_identical() {
     let dir = scratch("impactor");
