@@ -716,14 +716,10 @@ mod avx {
             b += 4;
         }
         let at = |v: &[f64], k: usize| flat_position(v, D, k);
+        let (yi, pi) = (at(nb.current, i), at(nb.previous, i));
         for b in b..nb.neighbors.len() {
             let j = nb.neighbors[b] as usize;
-            let (yj, yi, pj, pi) = (
-                at(nb.current, j),
-                at(nb.current, i),
-                at(nb.previous, j),
-                at(nb.previous, i),
-            );
+            let (yj, pj) = (at(nb.current, j), at(nb.previous, j));
             let d: [f64; 3] = std::array::from_fn(|a| yj[a] - yi[a]);
             if nb.status[b] != INTACT || d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= 0.0 {
                 continue;

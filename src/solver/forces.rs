@@ -731,7 +731,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         for i in flagged.flatten() {
             for e in bonds.family(i) {
                 let (j, ref_len) = (bonds.neighbors[e] as usize, bonds.ref_lengths[e]);
-                let (phi_ij, phi_ji, _) = weights.weights(e, i, j, ref_len);
+                let (phi_ij, phi_ji, vol_j) = weights.weights(e, i, j, ref_len);
                 let weight = 0.5 * (phi_ij + phi_ji);
                 if state.status[e] != INTACT
                     || !may_fail(damage, i, state.history[e], weight)
@@ -751,7 +751,6 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     state.status[reverse] = BROKEN;
                     broke[i / NODE_CHUNK] += 1;
                     broke[j / NODE_CHUNK] += 1;
-                    let (_, _, vol_j) = weights.weights(e, i, j, ref_len);
                     let (_, _, vol_i) = weights.weights(reverse, j, i, ref_len);
                     let geom = BondGeom {
                         ref_len,
