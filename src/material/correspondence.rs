@@ -748,6 +748,12 @@ impl<const D: usize> Material<D> for Correspondence {
         if let Some(next) = points.get(i + 1) {
             super::simd::prefetch(&next.kept);
             self.memo.prefetch(i + 1);
+            if nb.work.is_some() {
+                // And the matrices of its split work (`split_work`).
+                super::simd::prefetch(&next.b);
+                super::simd::prefetch(&next.c1);
+                super::simd::prefetch(&next.c1[(D - 1, D - 1)]);
+            }
         }
         // The bonds that carry force, as the pre-pass found them, when it kept them.
         let kept = (pi.kept_of == nb.neighbors.len() as u64).then_some(&pi.kept);

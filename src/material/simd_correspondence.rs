@@ -666,17 +666,20 @@ mod avx {
         let mut flagged = 0;
         let mut b = 0;
         let words = nb.history.as_mut_ptr();
-        while b + 4 <= nb.neighbors.len() {
-            let j = neighbours(nb, b);
+        // The family's arrays as locals: the stores to the work words could alias `nb`, which
+        // made every group load them again.
+        let (neighbors, lengths, status) = (nb.neighbors, nb.ref_lengths, &*nb.status);
+        while b + 4 <= neighbors.len() {
+            let j = std::array::from_fn(|k| *neighbors.get_unchecked(b + k) as usize);
             let d = rows::<D>(current, j, &yi);
             let xi = rows::<D>(law.reference.as_ptr(), j, &xi_i);
             let dp = rows::<D>(previous, j, &pi);
-            prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
+            prefetch::<512, _>(lengths.as_ptr().add(b));
             prefetch::<512, _>(words.add(b));
-            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            let l = _mm256_loadu_pd(lengths.as_ptr().add(b));
             // Intact and of non-zero length: the bonds the generic loop visits.
             let keep = _mm256_and_pd(
-                intact(nb.status, b),
+                intact(status, b),
                 _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
             );
             // t = ½ (B + B') ξ + ½ C1 η + ½ C1' η', then its work t·Δη.

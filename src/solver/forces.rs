@@ -533,15 +533,23 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         // of the work and flags the nodes with an entry that may reach w_c with its bond's
         // other half; `resolve_split_work` then decides those bonds from both entries.
         let split = Dm::SPLITS_WORK && bond_force::<D, M>() == BondForce::NodeLinear;
+        // Each node replaces its matrices in the vector or the factored path below.
+        debug_assert!(!split || M::FACTORED_OWN_HALF);
         let words = M::NODE_MATRIX_WORDS;
-        let previous_matrices = std::mem::take(&mut state.previous_matrices);
         let flagged: Vec<std::sync::Mutex<Vec<usize>>> = match split {
             true => self.chunks.iter().map(|_| Default::default()).collect(),
             false => Vec::new(),
         };
-        let node_matrices = |i: usize| match split {
-            true => &previous_matrices[i * words..(i + 1) * words],
-            false => &[],
+        // Node i's matrices of the previous evaluation, which its force pass reads and then
+        // replaces with this evaluation's (no other node reads them): per chunk.
+        let mut previous_matrices = std::mem::take(&mut state.previous_matrices);
+        let matrices_of_chunks = match split {
+            true => {
+                previous_matrices.resize(body.len() * words, 0.0);
+                let ends: Vec<usize> = self.chunks.iter().map(|c| c.end).collect();
+                split_at_ends(&mut previous_matrices, &ends, words)
+            }
+            false => self.chunks.iter().map(|_| Default::default()).collect(),
         };
         let (material, points) = (&self.material, &self.points);
         let previous = &state.previous;
@@ -557,20 +565,24 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             &mut state.force[..],
         );
         let items = chunk_items(&self.chunks, &bond_ends, hw, arrays);
-        let counts = map_chunks(items, &|(nodes, status, history, forces)| {
+        let items: Vec<_> = items.into_iter().zip(matrices_of_chunks).collect();
+        let counts = map_chunks(items, &|((nodes, status, history, forces), matrices)| {
             // Bonds broken, or with split work the entries that may fail.
             let mut broke = 0u64;
             let mut flag = Vec::new();
             for (k, i) in nodes.clone().enumerate() {
                 let (r, status, history) =
                     family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
+                let mine = matrices
+                    .get_mut(k * words..(k + 1) * words)
+                    .unwrap_or_default();
                 if let Some(w) = &vector {
                     // The previous positions are empty unless a non-central model records
                     // work.
                     let s0 = decide.then_some(s0);
                     let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, s0)
                         .under(D, softening, work, history)
-                        .with_previous(previous_flat, node_matrices(i));
+                        .with_previous(previous_flat, mine);
                     // SAFETY: AVX2 is available and neighbour indices are in bounds.
                     if let Some((f, nb_broken)) =
                         unsafe { material.vector_force(&mut nb, w, points) }
@@ -579,6 +591,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         broke += nb_broken;
                         if split && nb_broken > 0 {
                             flag.push(i);
+                        }
+                        if split {
+                            material.node_matrices(&points[i], mine);
                         }
                         continue;
                     }
@@ -589,7 +604,6 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     // The own halves through node i's matrices once: sum s ξ and s η
                     // over the family, evaluate only the other half per bond.
                     let (mut sum_xi, mut sum_eta) = (Vector::<D>::zeros(), Vector::<D>::zeros());
-                    let mine = node_matrices(i);
                     let flags = sweep.walk::<M>(i, r, status, history, decide, |v| {
                         let g = &v.geom;
                         let s = material.own_half_weight(i, g);
@@ -600,7 +614,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                             return 0;
                         }
                         let step = g.y - (previous[v.j] - previous[i]);
-                        v.history[0] += material.own_half_work(i, g, pi, mine, &step);
+                        v.history[0] += material.own_half_work(i, g, pi, &*mine, &step);
                         may_fail(damage, i, v.history[0], 0.5 * (g.phi_ij + g.phi_ji)) as u64
                     });
                     broke += flags;
@@ -608,6 +622,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                         flag.push(i);
                     }
                     forces[k] = f + material.own_half_force(i, pi, &sum_xi, &sum_eta);
+                    if split {
+                        material.node_matrices(pi, mine);
+                    }
                     continue;
                 }
                 broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
@@ -688,18 +705,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 .map(|m| m.into_inner().expect("not poisoned"));
             let resolved = self.resolve_split_work(weights, damage, body, bonds, state, flagged);
             add(resolved);
-            // Node i's matrices of this evaluation, for the next one's trapezoidal rule.
-            let mut matrices = previous_matrices;
-            matrices.resize(body.len() * words, 0.0);
-            matrices
-                .par_chunks_mut(words)
-                .zip(&self.points)
-                .for_each(|(out, p)| self.material.node_matrices(p, out));
-            state.previous_matrices = matrices;
         } else {
             add(counts);
-            state.previous_matrices = previous_matrices;
         }
+        state.previous_matrices = previous_matrices;
 
         if Dm::ON_WORK && !M::CENTRAL {
             state.previous.clone_from(&state.current);
