@@ -140,7 +140,7 @@ fn deck_pores(
 const LARGEST_NODE_STATE: usize = std::mem::size_of::<
     crate::material::correspondence::CorrespondencePoint<3>,
 >() + crate::material::stabilisation_memo::SLOT_BYTES
-    + 8 * 2 * 3 * 3;
+    + 8 * <crate::material::correspondence::Correspondence as crate::material::Material<3>>::NODE_MATRIX_WORDS;
 
 /// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
 /// memory than the machine has.

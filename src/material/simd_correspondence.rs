@@ -263,16 +263,10 @@ mod avx {
     }
     pub(super) use with_flags;
 
-    /// The neighbours of bonds b..b+4.
+    /// The neighbours of bonds b..b+4 (`neighbors` a family's).
     #[inline(always)]
-    unsafe fn neighbours(nb: &NodeBonds, b: usize) -> [usize; 4] {
-        let p = nb.neighbors.as_ptr().add(b);
-        [
-            *p as usize,
-            *p.add(1) as usize,
-            *p.add(2) as usize,
-            *p.add(3) as usize,
-        ]
+    unsafe fn neighbours(neighbors: &[u32], b: usize) -> [usize; 4] {
+        std::array::from_fn(|k| *neighbors.get_unchecked(b + k) as usize)
     }
 
     /// Entries k and k + 1 of the records at p[0..4], one lane per record: 128-bit loads of
@@ -459,7 +453,7 @@ mod avx {
         let mut broke = 0;
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
-            let j = neighbours(nb, b);
+            let j = neighbours(nb.neighbors, b);
             let d = rows::<D>(current, j, &yi);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
@@ -571,7 +565,7 @@ mod avx {
         let mut versions = [zero; 2];
         let mut b = 0;
         while b + 4 <= nb.neighbors.len() {
-            let j = neighbours(nb, b);
+            let j = neighbours(nb.neighbors, b);
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             // The bonds the pre-pass summed K and N over: from its bits, or as it decided
@@ -670,7 +664,7 @@ mod avx {
         // made every group load them again.
         let (neighbors, lengths, status) = (nb.neighbors, nb.ref_lengths, &*nb.status);
         while b + 4 <= neighbors.len() {
-            let j = std::array::from_fn(|k| *neighbors.get_unchecked(b + k) as usize);
+            let j = neighbours(neighbors, b);
             let d = rows::<D>(current, j, &yi);
             let xi = rows::<D>(law.reference.as_ptr(), j, &xi_i);
             let dp = rows::<D>(previous, j, &pi);

@@ -589,10 +589,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     {
                         forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
                         broke += nb_broken;
-                        if split && nb_broken > 0 {
-                            flag.push(i);
-                        }
                         if split {
+                            if nb_broken > 0 {
+                                flag.push(i);
+                            }
                             material.node_matrices(&points[i], mine);
                         }
                         continue;
