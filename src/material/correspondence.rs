@@ -633,7 +633,10 @@ impl<const D: usize> Material<D> for Correspondence {
     /// N on four bonds at a time (`simd_correspondence`) and the node's B and H (`deformed`),
     /// written over its previous point state; K, K⁻¹, C1 and Σ s ξ too unless the family
     /// carries force through exactly the bonds (`kept`) they were computed for, and then C1
-    /// takes a new version (`StabilisationMemo`). Last, the moment record.
+    /// takes a new version (`StabilisationMemo`). Then the moment record, and with split
+    /// work (`nb.work` with node i's previous matrices `nb.matrices`) each entry's own half
+    /// of the work (`own_half_work`), returning the number of entries that may fail in place
+    /// of the bonds broken.
     unsafe fn vector_prepass(
         &self,
         nb: &mut NodeBonds,
@@ -642,6 +645,21 @@ impl<const D: usize> Material<D> for Correspondence {
     ) -> Option<u64> {
         // Under a critical-energy law (`nb.work`) the pre-pass reads only the bond status.
         let law = self.kernel_law::<D>(nb.current.len() / D)?;
+        // Split work reads the previous positions, one work word per bond, node i's
+        // matrices at the previous evaluation and what the sums hand on in `scratch`. The
+        // engine gives them to every node or none: a node left to the generic pre-pass
+        // would have no moment record for the force kernel, so a mismatch is a bug.
+        let split = nb.work.is_some() && !nb.matrices.is_empty();
+        assert!(
+            !split
+                || (nb.previous.len() == nb.current.len()
+                    && nb.history.len() == nb.neighbors.len()
+                    && nb.matrices.len() == 2 * D * D
+                    && nb.scratch.is_some()
+                    && nb.s0.is_none()),
+            "split work of node {} without its inputs",
+            nb.i
+        );
         let family = nb.neighbors.len();
         // A family too large for `kept` sums K with N in one pass, as it cannot reuse it.
         let large = family > simd_correspondence::KEPT_BITS;
@@ -711,20 +729,40 @@ impl<const D: usize> Material<D> for Correspondence {
             version
         };
         point.moments = self.moment_record(i, point, version);
-        Some(sums.broke)
+        match nb.work {
+            Some(energy) if split => {
+                debug_assert_eq!(sums.broke, 0, "a critical energy breaks nothing here");
+                let (mean_b, half_c1, half_c1_prev) = Self::work_matrices::<D>(point, nb.matrices);
+                // SAFETY: forwarded from the caller; the previous positions and the work
+                // words checked above.
+                Some(unsafe {
+                    simd_correspondence::correspondence_own_work(
+                        nb,
+                        &law,
+                        w,
+                        &energy,
+                        &mean_b,
+                        [&half_c1, &half_c1_prev],
+                    )
+                })
+            }
+            _ => Some(sums.broke),
+        }
     }
 
     /// The neighbours' moment records summed on four bonds at a time, the memo of the C1 sums
     /// (summed again when a version changed), then `moment_force`: the engine's factored loop
-    /// with the other halves regrouped. Under a uniform critical-energy law (`nb.work`) also
-    /// each entry's own half of the work (split work, `own_half_work`), returning the number
-    /// of entries that may fail in place of the bonds broken.
+    /// with the other halves regrouped. Not under a critical energy: the split work is the
+    /// pre-pass's (`vector_prepass`), and the pair record of the work has no kernel.
     unsafe fn vector_force(
         &self,
         nb: &mut NodeBonds,
         w: &UniformWeights,
         points: &[Self::Point],
     ) -> Option<([f64; 3], u64)> {
+        if nb.work.is_some() {
+            return None;
+        }
         let law = self.kernel_law::<D>(points.len())?;
         let stride = std::mem::size_of::<Self::Point>() / std::mem::size_of::<f64>();
         // SAFETY: `CorrespondencePoint` is `repr(C)` of f64 and u64 fields only (no padding),
@@ -733,27 +771,11 @@ impl<const D: usize> Material<D> for Correspondence {
         let flat = unsafe {
             std::slice::from_raw_parts(points.as_ptr() as *const f64, points.len() * stride)
         };
-        // Under a critical energy the entries' own halves of the work (one word per bond,
-        // split work), from node i's matrices now and at the previous evaluation and the
-        // previous positions, which the engine keeps for this law.
-        if nb.work.is_some()
-            && (nb.previous.len() != nb.current.len()
-                || nb.history.len() != nb.neighbors.len()
-                || nb.matrices.len() != 2 * D * D)
-        {
-            return None;
-        }
         let (i, pi) = (nb.i, &points[nb.i]);
         // What only the next node's own force pass reads: a line of its record, its memo.
         if let Some(next) = points.get(i + 1) {
             super::simd::prefetch(&next.kept);
             self.memo.prefetch(i + 1);
-            if nb.work.is_some() {
-                // And the matrices of its split work (`split_work`).
-                super::simd::prefetch(&next.b);
-                super::simd::prefetch(&next.c1);
-                super::simd::prefetch(&next.c1[(D - 1, D - 1)]);
-            }
         }
         // The bonds that carry force, as the pre-pass found them, when it kept them.
         let kept = (pi.kept_of == nb.neighbors.len() as u64).then_some(&pi.kept);
@@ -772,28 +794,7 @@ impl<const D: usize> Material<D> for Correspondence {
             }
         };
         let f = self.moment_force::<D>(i, &m, &memo, pi);
-        let flagged = match nb.work {
-            Some(energy) => {
-                let (mean_b, half_c1, half_c1_prev) = Self::work_matrices::<D>(pi, nb.matrices);
-                // SAFETY: forwarded from the caller; the record and previous positions
-                // checked above.
-                unsafe {
-                    simd_correspondence::correspondence_own_work(
-                        nb,
-                        &law,
-                        w,
-                        &energy,
-                        &mean_b,
-                        [&half_c1, &half_c1_prev],
-                    )
-                }
-            }
-            None => 0,
-        };
-        Some((
-            std::array::from_fn(|a| if a < D { f[a] } else { 0.0 }),
-            flagged,
-        ))
+        Some((std::array::from_fn(|a| if a < D { f[a] } else { 0.0 }), 0))
     }
 
     /// The stabilisation energy of the bond, ½ ω z·C1 z w: its gradient is exactly T^S

@@ -290,8 +290,9 @@ pub trait Material<const D: usize>: Sync + Send {
     /// Optional AVX2 pre-pass of one node (2D or 3D, `nb.dim`; uniform grid, one critical
     /// stretch, or the uniform law `nb` carries): writes its point state over `point`, the node's state from
     /// the last evaluation (the default before the first; a model may reuse parts of it), and
-    /// returns the bonds it broke; or `None`, leaving `point` as it was, to use the generic
-    /// loop.
+    /// returns the bonds it broke (with split work, `DamageLaw::SPLITS_WORK`, the entries
+    /// that may fail, their own halves of the work added); or `None`, leaving `point` as it
+    /// was, to use the generic loop.
     ///
     /// # Safety
     /// `simd::available()` and every neighbour index below `nb.current.len() / nb.dim`.
@@ -306,8 +307,7 @@ pub trait Material<const D: usize>: Sync + Send {
 
     /// Optional AVX2 force pass of one node (2D or 3D, `nb.dim`; uniform grid, one critical
     /// stretch, or the uniform law `nb` carries: softening, critical energy): its force
-    /// density (z = 0 in 2D) and the bonds it broke (with split work, the entries that may
-    /// fail: `DamageLaw::SPLITS_WORK`), or `None` to use the generic loop.
+    /// density (z = 0 in 2D) and the bonds it broke, or `None` to use the generic loop.
     ///
     /// # Safety
     /// As for `vector_prepass`.

@@ -63,6 +63,10 @@ pub struct NodeBonds<'a> {
     /// Node i's own-half matrices at the previous evaluation (`Material::node_matrices`;
     /// empty unless `with_previous` gives them): split work.
     pub matrices: &'a [f64],
+    /// Room in which one kernel leaves what it read of the family for the next one on the
+    /// same node (`None` unless `with_scratch`; the correspondence pre-pass hands its bond
+    /// vectors to the split-work kernel). It grows to the largest family it serves.
+    pub scratch: Option<&'a mut Vec<f64>>,
 }
 
 impl<'a> NodeBonds<'a> {
@@ -90,7 +94,14 @@ impl<'a> NodeBonds<'a> {
             history: &mut [],
             previous: &[],
             matrices: &[],
+            scratch: None,
         }
+    }
+
+    /// The same family with room for the kernels to hand data on (`scratch`).
+    pub fn with_scratch(mut self, scratch: &'a mut Vec<f64>) -> Self {
+        self.scratch = Some(scratch);
+        self
     }
 
     /// The same family with the positions of the previous evaluation and node i's own-half

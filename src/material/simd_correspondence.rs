@@ -5,11 +5,13 @@
 //! (`moment_*`: B, g, u and C1's version), from which the model forms the other halves
 //! ω φ V (B_j ξ + C1_j η) and the own-half sum Σ s η without a product per bond (see
 //! `Correspondence::vector_force` and `Material::FACTORED_OWN_HALF`);
-//! under one critical energy the same force pass, then each entry's own half of the bond work,
+//! under one critical energy the same force pass, and in the pre-pass, once node i's matrices
+//! are known, each entry's own half of the bond work,
 //! w_i += ½ (T_prev + T)·Δη with T = ω φ (B_i ξ + C1_i η) (Eq. 8 with Eq. 14 through
 //! B = A − C1 H) from node i's matrices now and at the previous evaluation (Foster, Silling &
-//! Chen 2011; seed 002 Eq. 6; seed 004 Eqs. 16–18, `damage::critical_energy`); the engine
-//! breaks a bond when w_i + w_j ≥ w_c φ̄ (`ForceEngine`'s split work).
+//! Chen 2011; seed 002 Eq. 6; seed 004 Eqs. 16–18, `damage::critical_energy`), on the bond
+//! vectors the sums just read (`handed_words`); the engine breaks a bond when
+//! w_i + w_j ≥ w_c φ̄ (`ForceEngine`'s split work).
 //!
 //! Same terms, failure rules and partial-volume factor as the generic loops; the sums of
 //! products are fused multiply–adds (one rounding instead of two), and the order of a node's
@@ -104,6 +106,15 @@ pub fn lower<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
 /// Families of up to this many bonds get `Sums::kept`.
 pub const KEPT_BITS: usize = 256;
 
+/// Split work: what the pre-pass of a node leaves in `NodeBonds::scratch` for the work
+/// kernel that follows on the same node, per group of four bonds b..b+4 at word
+/// `handed_words(d) · b / 4`: d = y_j − y_i (d rows of four lanes), ξ (d rows), the lanes
+/// that carry force (a mask row) and φ (a row). The work kernel then reads them in place of
+/// two position gathers and the tests of the bond.
+pub const fn handed_words(d: usize) -> usize {
+    (2 * d + 2) * 4
+}
+
 /// What the pre-pass of a node sums; the matrices D×D column-major in their first D² words,
 /// the vector in its first D.
 #[derive(Debug, Clone, Copy)]
@@ -121,7 +132,8 @@ pub struct Sums {
 }
 
 /// Pre-pass of node i: N (and K and Σ s ξ if `with_k`) over its intact bonds, deciding
-/// failure like the generic loop, and which bonds carried force.
+/// failure like the generic loop, and which bonds carried force. Given `nb.scratch` and no
+/// critical stretch, it also leaves there what the work kernel reads (`handed_words`).
 ///
 /// # Safety
 /// `simd::fma_available()`; every neighbour index below `nb.current.len() / nb.dim` and
@@ -135,16 +147,37 @@ pub unsafe fn correspondence_sums(
     #[cfg(target_arch = "x86_64")]
     {
         let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
-        match (nb.s0.is_some(), with_k) {
-            (true, true) => avx::with_flags!(avx::sums, dim, [true, true], hhb, law, (nb, law, w)),
-            (true, false) => {
-                avx::with_flags!(avx::sums, dim, [true, false], hhb, law, (nb, law, w))
+        // With `scratch` (split work, where this pass decides no failure), the groups'
+        // bond vectors for the work kernel (`handed_words`).
+        let groups = nb.neighbors.len() / 4;
+        let hand = match nb.scratch.as_deref_mut() {
+            Some(room) if nb.s0.is_none() => {
+                if room.len() < handed_words(dim) * groups {
+                    room.resize(handed_words(dim) * groups, 0.0);
+                }
+                room.as_mut_ptr()
             }
-            (false, true) => {
-                avx::with_flags!(avx::sums, dim, [false, true], hhb, law, (nb, law, w))
+            _ => std::ptr::null_mut(),
+        };
+        let args = (nb, law, w, hand);
+        match (args.0.s0.is_some(), with_k, !hand.is_null()) {
+            (true, true, _) => {
+                avx::with_flags!(avx::sums, dim, [true, true, false], hhb, law, (args))
             }
-            (false, false) => {
-                avx::with_flags!(avx::sums, dim, [false, false], hhb, law, (nb, law, w))
+            (true, false, _) => {
+                avx::with_flags!(avx::sums, dim, [true, false, false], hhb, law, (args))
+            }
+            (false, true, false) => {
+                avx::with_flags!(avx::sums, dim, [false, true, false], hhb, law, (args))
+            }
+            (false, false, false) => {
+                avx::with_flags!(avx::sums, dim, [false, false, false], hhb, law, (args))
+            }
+            (false, true, true) => {
+                avx::with_flags!(avx::sums, dim, [false, true, true], hhb, law, (args))
+            }
+            (false, false, true) => {
+                avx::with_flags!(avx::sums, dim, [false, false, true], hhb, law, (args))
             }
         }
     }
@@ -206,11 +239,14 @@ pub unsafe fn correspondence_moments(
 /// `Correspondence::own_half_work`, with η' = η − Δη from the previous positions
 /// `nb.previous`), and returns how many entries may fail with their bond's other half
 /// (w_i ≥ ½ w_c φ̄, less a margin for rounding). `mean_b` is ½ (B + B') column-major,
-/// `half_c1` ½ C1 and ½ C1' as lower triangles (C1 only with zero-energy control).
+/// `half_c1` ½ C1 and ½ C1' as lower triangles (C1 only with zero-energy control). The
+/// groups of four bonds take d, ξ, their lanes and φ from `nb.scratch`, where this node's
+/// pre-pass (`correspondence_sums` of this evaluation, positions and status unchanged since)
+/// left them (`handed_words`); the tail reads the positions.
 ///
 /// # Safety
-/// As for `correspondence_sums`; `nb.history.len() == nb.neighbors.len()` and
-/// `nb.previous.len() == nb.current.len()`.
+/// As for `correspondence_sums`; `nb.history.len() == nb.neighbors.len()`,
+/// `nb.previous.len() == nb.current.len()`, and `nb.scratch` as above.
 pub unsafe fn correspondence_own_work(
     nb: &mut NodeBonds,
     law: &CorrespondenceLaw,
@@ -221,6 +257,10 @@ pub unsafe fn correspondence_own_work(
 ) -> u64 {
     debug_assert_eq!(nb.history.len(), nb.neighbors.len());
     debug_assert_eq!(nb.previous.len(), nb.current.len());
+    debug_assert!(nb
+        .scratch
+        .as_ref()
+        .is_some_and(|room| room.len() >= handed_words(nb.dim) * (nb.neighbors.len() / 4)));
     #[cfg(target_arch = "x86_64")]
     {
         let (dim, hhb) = (nb.dim, w.rule == PartialVolume::Hhb);
@@ -359,16 +399,17 @@ mod avx {
         }
     }
 
-    /// ω(|ξ|) φ(|ξ|) V on four lanes, zero outside `keep`: the generic ω · (φ μ V).
+    /// ω(|ξ|) φ V on four lanes (φ = φ(|ξ|)), zero outside `keep`: the generic ω · (φ μ V).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn weight<const HHB: bool, const INVERSE: bool>(
+    unsafe fn weight<const INVERSE: bool>(
         law: &CorrespondenceLaw,
         w: &UniformWeights,
         l: __m256d,
+        phi: __m256d,
         keep: __m256d,
     ) -> __m256d {
-        let pv = _mm256_mul_pd(phi_of::<HHB>(w, l), _mm256_set1_pd(w.node.volume));
+        let pv = _mm256_mul_pd(phi, _mm256_set1_pd(w.node.volume));
         _mm256_and_pd(times_omega::<INVERSE>(law, l, pv), keep)
     }
 
@@ -425,14 +466,22 @@ mod avx {
         const D: usize,
         const DECIDE: bool,
         const WITH_K: bool,
+        const HAND: bool,
         const HHB: bool,
         const INVERSE: bool,
     >(
-        nb: &mut NodeBonds,
-        law: &CorrespondenceLaw,
-        w: &UniformWeights,
+        (nb, law, w, hand): (
+            &mut NodeBonds,
+            &CorrespondenceLaw,
+            &UniformWeights,
+            *mut f64,
+        ),
     ) -> Sums {
         debug_assert_eq!(nb.dim, D);
+        // A local copy: the stores through `hand` could alias it (every group loaded its
+        // constants again).
+        let w = &w.clone();
+        let (neighbors, lengths) = (nb.neighbors, nb.ref_lengths);
         let i = nb.i;
         let (current, reference) = (nb.current.as_ptr(), law.reference.as_ptr());
         let yi = own::<D>(current, i);
@@ -452,19 +501,29 @@ mod avx {
         let mut word = 0u64;
         let mut broke = 0;
         let mut b = 0;
-        while b + 4 <= nb.neighbors.len() {
-            let j = neighbours(nb.neighbors, b);
+        while b + 4 <= neighbors.len() {
+            let j = neighbours(neighbors, b);
             let d = rows::<D>(current, j, &yi);
-            prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
-            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            prefetch::<512, _>(lengths.as_ptr().add(b));
+            let l = _mm256_loadu_pd(lengths.as_ptr().add(b));
             let keep = keep_lanes!(DECIDE, nb, b, &d, l, s0, near, broke);
             word |= (_mm256_movemask_pd(keep) as u64) << (b % 64);
             if b % 64 == 60 {
                 kept[(b / 64) & 3] = word;
                 word = 0;
             }
-            let s = weight::<HHB, INVERSE>(law, w, l, keep);
+            let phi = phi_of::<HHB>(w, l);
+            let s = weight::<INVERSE>(law, w, l, phi, keep);
             let xi = rows::<D>(reference, j, &xi_i);
+            if HAND {
+                let out = hand.add(handed_words(D) * (b / 4));
+                for a in 0..D {
+                    _mm256_storeu_pd(out.add(4 * a), d[a]);
+                    _mm256_storeu_pd(out.add(4 * (D + a)), xi[a]);
+                }
+                _mm256_storeu_pd(out.add(8 * D), keep);
+                _mm256_storeu_pd(out.add(8 * D + 4), phi);
+            }
             // K += (ξ s) ξᵀ, N += η (ξ s)ᵀ (the generic `accumulate`, fused, with s on ξ:
             // η, ξ s and N are then all that is live, and N's nine sums stay in registers).
             let xs: [__m256d; D] = std::array::from_fn(|a| _mm256_mul_pd(xi[a], s));
@@ -579,7 +638,7 @@ mod avx {
                     _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
                 )
             };
-            let s = lanes(weight::<HHB, INVERSE>(law, w, l, keep));
+            let s = lanes(weight::<INVERSE>(law, w, l, phi_of::<HHB>(w, l), keep));
             // acc += s m_j, one neighbour's whole record at a time (whole-row loads: no
             // gather, no shuffle).
             for (lane, &k) in j.iter().enumerate() {
@@ -647,12 +706,13 @@ mod avx {
         // stay in registers.
         let (law, w) = (&law.clone(), &w.clone());
         let i = nb.i;
-        let (current, previous) = (nb.current.as_ptr(), nb.previous.as_ptr());
-        let (yi, xi_i, pi) = (
-            own::<D>(current, i),
-            own::<D>(law.reference.as_ptr(), i),
-            own::<D>(previous, i),
-        );
+        let previous = nb.previous.as_ptr();
+        let pi = own::<D>(previous, i);
+        // The pre-pass's d, ξ, lanes and φ of each group (`handed_words`).
+        let handed = nb
+            .scratch
+            .as_deref()
+            .map_or(std::ptr::null(), |v| v.as_ptr());
         let zero = _mm256_setzero_pd();
         let m: [__m256d; 9] = std::array::from_fn(|k| _mm256_set1_pd(mean_b[k]));
         let c: [[__m256d; 6]; 2] = half_c1.map(|h| h.map(|x| _mm256_set1_pd(x)));
@@ -662,20 +722,17 @@ mod avx {
         let words = nb.history.as_mut_ptr();
         // The family's arrays as locals: the stores to the work words could alias `nb`, which
         // made every group load them again.
-        let (neighbors, lengths, status) = (nb.neighbors, nb.ref_lengths, &*nb.status);
+        let (neighbors, lengths) = (nb.neighbors, nb.ref_lengths);
         while b + 4 <= neighbors.len() {
             let j = neighbours(neighbors, b);
-            let d = rows::<D>(current, j, &yi);
-            let xi = rows::<D>(law.reference.as_ptr(), j, &xi_i);
             let dp = rows::<D>(previous, j, &pi);
-            prefetch::<512, _>(lengths.as_ptr().add(b));
-            prefetch::<512, _>(words.add(b));
-            let l = _mm256_loadu_pd(lengths.as_ptr().add(b));
+            let at = handed.add(handed_words(D) * (b / 4));
+            let d: [__m256d; D] = std::array::from_fn(|a| _mm256_loadu_pd(at.add(4 * a)));
+            let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_loadu_pd(at.add(4 * (D + a))));
             // Intact and of non-zero length: the bonds the generic loop visits.
-            let keep = _mm256_and_pd(
-                intact(status, b),
-                _mm256_cmp_pd::<_CMP_GT_OQ>(square(&d), zero),
-            );
+            let keep = _mm256_loadu_pd(at.add(8 * D));
+            let phi = _mm256_loadu_pd(at.add(8 * D + 4));
+            prefetch::<512, _>(words.add(b));
             // t = ½ (B + B') ξ + ½ C1 η + ½ C1' η', then its work t·Δη.
             let mut t: [__m256d; D] = std::array::from_fn(|r| {
                 let mut v = _mm256_mul_pd(m[r], xi[0]);
@@ -700,8 +757,11 @@ mod avx {
                 work = _mm256_fmadd_pd(t[r], _mm256_sub_pd(d[r], dp[r]), work);
             }
             // w_i += ω φ t·Δη on the lanes kept (the others add ω φ · 0).
-            let phi = phi_of::<HHB>(w, l);
-            let wp = times_omega::<INVERSE>(law, l, phi);
+            let wp = if INVERSE {
+                times_omega::<INVERSE>(law, _mm256_loadu_pd(lengths.as_ptr().add(b)), phi)
+            } else {
+                phi
+            };
             let old = _mm256_loadu_pd(words.add(b));
             let new = _mm256_fmadd_pd(wp, _mm256_and_pd(work, keep), old);
             _mm256_storeu_pd(words.add(b), new);

@@ -493,54 +493,19 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             bonds,
         };
 
-        if M::NEEDS_PREPASS {
-            let (material, chunks) = (&self.material, &self.chunks);
-            let arrays = (
-                &mut state.status[..],
-                &mut state.history[..],
-                &mut self.points[..],
-            );
-            let items = chunk_items(chunks, &bond_ends, hw, arrays);
-            add(map_chunks(items, &|(nodes, status, history, points)| {
-                let mut broke = 0u64;
-                for (k, i) in nodes.clone().enumerate() {
-                    let (r, status, history) =
-                        family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
-                    if let Some(w) = &vector {
-                        // Under a critical energy the pre-pass reads only the status.
-                        let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0))
-                            .under(D, softening, work, history);
-                        // SAFETY: AVX2 is available and neighbour indices are in bounds.
-                        if let Some(nb_broken) =
-                            unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
-                        {
-                            broke += nb_broken;
-                            continue;
-                        }
-                    }
-                    let mut acc = M::Point::default();
-                    broke += sweep.walk::<M>(i, r, status, history, true, |v| {
-                        material.accumulate(i, &mut acc, &v.geom);
-                        0
-                    });
-                    points[k] = material.finish_point(i, acc);
-                }
-                broke
-            }));
-        }
-
-        // Split work (`DamageLaw::SPLITS_WORK`): the force pass records each entry's own half
-        // of the work and flags the nodes with an entry that may reach w_c with its bond's
-        // other half; `resolve_split_work` then decides those bonds from both entries.
+        // Split work (`DamageLaw::SPLITS_WORK`): the pre-pass, once node i's matrices are
+        // known, adds each entry's own half of the work and flags the nodes with an entry
+        // that may reach w_c with its bond's other half; after the force pass
+        // `resolve_split_work` decides those bonds from both entries. (The pre-pass has just
+        // read the family's positions; the force pass reads the neighbours' moment records.)
         let split = Dm::SPLITS_WORK && bond_force::<D, M>() == BondForce::NodeLinear;
-        // Each node replaces its matrices in the vector or the factored path below.
-        debug_assert!(!split || M::FACTORED_OWN_HALF);
+        debug_assert!(!split || (M::NEEDS_PREPASS && M::FACTORED_OWN_HALF));
         let words = M::NODE_MATRIX_WORDS;
         let flagged: Vec<std::sync::Mutex<Vec<usize>>> = match split {
             true => self.chunks.iter().map(|_| Default::default()).collect(),
             false => Vec::new(),
         };
-        // Node i's matrices of the previous evaluation, which its force pass reads and then
+        // Node i's matrices of the previous evaluation, which its pre-pass reads and then
         // replaces with this evaluation's (no other node reads them): per chunk.
         let mut previous_matrices = std::mem::take(&mut state.previous_matrices);
         let matrices_of_chunks = match split {
@@ -551,12 +516,90 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             }
             false => self.chunks.iter().map(|_| Default::default()).collect(),
         };
-        let (material, points) = (&self.material, &self.points);
         let previous = &state.previous;
         // SAFETY: as for `flat` (empty unless a non-central model records work).
         let previous_flat: &[f64] = unsafe {
             std::slice::from_raw_parts(previous.as_ptr() as *const f64, previous.len() * D)
         };
+
+        if M::NEEDS_PREPASS {
+            let (material, chunks) = (&self.material, &self.chunks);
+            let arrays = (
+                &mut state.status[..],
+                &mut state.history[..],
+                &mut self.points[..],
+            );
+            let items = chunk_items(chunks, &bond_ends, hw, arrays);
+            let items: Vec<_> = items.into_iter().zip(matrices_of_chunks).collect();
+            add(map_chunks(items, &|(
+                (nodes, status, history, points),
+                matrices,
+            )| {
+                let mut broke = 0u64;
+                let mut flag = Vec::new();
+                // What a kernel hands on to the next on the same node (split work).
+                let mut scratch = Vec::new();
+                for (k, i) in nodes.clone().enumerate() {
+                    let (r, status, history) =
+                        family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
+                    let mine = matrices
+                        .get_mut(k * words..(k + 1) * words)
+                        .unwrap_or_default();
+                    if let Some(w) = &vector {
+                        // Under a critical energy the pre-pass reads only the status.
+                        let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0))
+                            .under(D, softening, work, history)
+                            .with_previous(previous_flat, mine);
+                        if split {
+                            nb = nb.with_scratch(&mut scratch);
+                        }
+                        // SAFETY: AVX2 is available and neighbour indices are in bounds.
+                        if let Some(count) =
+                            unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
+                        {
+                            // With split work, the entries that may fail.
+                            if split {
+                                if count > 0 {
+                                    flag.push(i);
+                                }
+                                material.node_matrices(&points[k], mine);
+                            } else {
+                                broke += count;
+                            }
+                            continue;
+                        }
+                    }
+                    let mut acc = M::Point::default();
+                    broke += sweep.walk::<M>(i, r.clone(), status, history, true, |v| {
+                        material.accumulate(i, &mut acc, &v.geom);
+                        0
+                    });
+                    points[k] = material.finish_point(i, acc);
+                    if split {
+                        let pi = &points[k];
+                        let flags = sweep.walk::<M>(i, r, status, history, false, |v| {
+                            let g = &v.geom;
+                            let step = g.y - (previous[v.j] - previous[i]);
+                            v.history[0] += material.own_half_work(i, g, pi, mine, &step);
+                            may_fail(damage, i, v.history[0], 0.5 * (g.phi_ij + g.phi_ji)) as u64
+                        });
+                        if flags > 0 {
+                            flag.push(i);
+                        }
+                        material.node_matrices(pi, mine);
+                    }
+                }
+                if !flag.is_empty() {
+                    *flagged[nodes.start / NODE_CHUNK]
+                        .lock()
+                        .expect("not poisoned") = flag;
+                }
+                broke
+            }));
+        }
+        state.previous_matrices = previous_matrices;
+
+        let (material, points) = (&self.material, &self.points);
         // A two-pass model decided stretch-based failure in its pre-pass.
         let decide = !M::NEEDS_PREPASS;
         let arrays = (
@@ -565,36 +608,26 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             &mut state.force[..],
         );
         let items = chunk_items(&self.chunks, &bond_ends, hw, arrays);
-        let items: Vec<_> = items.into_iter().zip(matrices_of_chunks).collect();
-        let counts = map_chunks(items, &|((nodes, status, history, forces), matrices)| {
-            // Bonds broken, or with split work the entries that may fail.
+        // With split work the pre-pass did the work: this pass only sums the forces.
+        let work = work.filter(|_| !split);
+        let counts = map_chunks(items, &|(nodes, status, history, forces)| {
             let mut broke = 0u64;
-            let mut flag = Vec::new();
             for (k, i) in nodes.clone().enumerate() {
                 let (r, status, history) =
                     family_arrays(bonds, &nodes, i, hw, &mut *status, &mut *history);
-                let mine = matrices
-                    .get_mut(k * words..(k + 1) * words)
-                    .unwrap_or_default();
                 if let Some(w) = &vector {
                     // The previous positions are empty unless a non-central model records
                     // work.
                     let s0 = decide.then_some(s0);
                     let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, s0)
                         .under(D, softening, work, history)
-                        .with_previous(previous_flat, mine);
+                        .with_previous(previous_flat, &[]);
                     // SAFETY: AVX2 is available and neighbour indices are in bounds.
                     if let Some((f, nb_broken)) =
                         unsafe { material.vector_force(&mut nb, w, points) }
                     {
                         forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
                         broke += nb_broken;
-                        if split {
-                            if nb_broken > 0 {
-                                flag.push(i);
-                            }
-                            material.node_matrices(&points[i], mine);
-                        }
                         continue;
                     }
                 }
@@ -604,27 +637,15 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     // The own halves through node i's matrices once: sum s ξ and s η
                     // over the family, evaluate only the other half per bond.
                     let (mut sum_xi, mut sum_eta) = (Vector::<D>::zeros(), Vector::<D>::zeros());
-                    let flags = sweep.walk::<M>(i, r, status, history, decide, |v| {
+                    broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
                         let g = &v.geom;
                         let s = material.own_half_weight(i, g);
                         sum_xi += g.xi * s;
                         sum_eta += (g.y - g.xi) * s;
                         f += material.other_half(i, v.j, g, &points[v.j]);
-                        if !split {
-                            return 0;
-                        }
-                        let step = g.y - (previous[v.j] - previous[i]);
-                        v.history[0] += material.own_half_work(i, g, pi, &*mine, &step);
-                        may_fail(damage, i, v.history[0], 0.5 * (g.phi_ij + g.phi_ji)) as u64
+                        0
                     });
-                    broke += flags;
-                    if flags > 0 {
-                        flag.push(i);
-                    }
                     forces[k] = f + material.own_half_force(i, pi, &sum_xi, &sum_eta);
-                    if split {
-                        material.node_matrices(pi, mine);
-                    }
                     continue;
                 }
                 broke += sweep.walk::<M>(i, r, status, history, decide, |v| {
@@ -692,23 +713,16 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 });
                 forces[k] = f;
             }
-            if !flag.is_empty() {
-                *flagged[nodes.start / NODE_CHUNK]
-                    .lock()
-                    .expect("not poisoned") = flag;
-            }
             broke
         });
+        add(counts);
         if split {
             let flagged = flagged
                 .into_iter()
                 .map(|m| m.into_inner().expect("not poisoned"));
             let resolved = self.resolve_split_work(weights, damage, body, bonds, state, flagged);
             add(resolved);
-        } else {
-            add(counts);
         }
-        state.previous_matrices = previous_matrices;
 
         if Dm::ON_WORK && !M::CENTRAL {
             state.previous.clone_from(&state.current);

@@ -60,6 +60,9 @@ struct Compared {
     /// Whether the vector run's forces differ from the generic loop's in some bit: a kernel
     /// ran (its sums are in another order and fused), not the generic loop behind the gate.
     kernel_ran: bool,
+    /// Likewise for the history words: a kernel recorded the work (split work records it
+    /// in the pre-pass, apart from the force kernel).
+    history_kernel_ran: bool,
 }
 
 /// `compare_with` under a given loading.
@@ -121,6 +124,7 @@ fn compare_loaded<const D: usize, M: Material<D> + Clone>(
         first: *first,
         last: sg.iter().filter(|&&s| s != 0).count(),
         kernel_ran: fv != fg,
+        history_kernel_ran: hv.iter().zip(hg).any(|(v, g)| v.to_bits() != g.to_bits()),
     }
 }
 
@@ -605,15 +609,23 @@ fn energy_case_g0<const D: usize, M: Material<D> + Clone>(
         ramp: &[0.4, 0.7, 1.0],
         no_fail: true,
     };
+    let damage: Damage = law.into();
+    // A model with history words under this law must have them written by a kernel too.
+    let recorded = damage.bytes_per_bond(peridyn::solver::bond_force::<D, M>()) > 0;
     let Compared {
         first,
         last,
         kernel_ran,
-    } = compare_loaded(name, material, law.into(), rule, loading);
+        history_kernel_ran,
+    } = compare_loaded(name, material, damage, rule, loading);
     println!("{name}: {first} then {last} bond entries broken");
     assert!(
         0 < first && first < last,
         "{name}: bonds must break at the first and at a later evaluation"
     );
     assert!(kernel_ran, "{name}: no kernel ran");
+    assert!(
+        history_kernel_ran || !recorded,
+        "{name}: no kernel recorded the work"
+    );
 }
