@@ -112,7 +112,16 @@ pub const KEPT_BITS: usize = 256;
 /// that carry force (a mask row) and φ (a row). The work kernel then reads them in place of
 /// two position gathers and the tests of the bond.
 pub const fn handed_words(d: usize) -> usize {
-    (2 * d + 2) * 4
+    4 * (2 * d + 2)
+}
+
+/// The first word of the mask row and of the φ row in a group's `handed_words` (after the
+/// 2d rows of d and ξ).
+const fn handed_keep(d: usize) -> usize {
+    4 * 2 * d
+}
+const fn handed_phi(d: usize) -> usize {
+    4 * (2 * d + 1)
 }
 
 /// What the pre-pass of a node sums; the matrices D×D column-major in their first D² words,
@@ -521,8 +530,8 @@ mod avx {
                     _mm256_storeu_pd(out.add(4 * a), d[a]);
                     _mm256_storeu_pd(out.add(4 * (D + a)), xi[a]);
                 }
-                _mm256_storeu_pd(out.add(8 * D), keep);
-                _mm256_storeu_pd(out.add(8 * D + 4), phi);
+                _mm256_storeu_pd(out.add(handed_keep(D)), keep);
+                _mm256_storeu_pd(out.add(handed_phi(D)), phi);
             }
             // K += (ξ s) ξᵀ, N += η (ξ s)ᵀ (the generic `accumulate`, fused, with s on ξ:
             // η, ξ s and N are then all that is live, and N's nine sums stay in registers).
@@ -730,8 +739,8 @@ mod avx {
             let d: [__m256d; D] = std::array::from_fn(|a| _mm256_loadu_pd(at.add(4 * a)));
             let xi: [__m256d; D] = std::array::from_fn(|a| _mm256_loadu_pd(at.add(4 * (D + a))));
             // Intact and of non-zero length: the bonds the generic loop visits.
-            let keep = _mm256_loadu_pd(at.add(8 * D));
-            let phi = _mm256_loadu_pd(at.add(8 * D + 4));
+            let keep = _mm256_loadu_pd(at.add(handed_keep(D)));
+            let phi = _mm256_loadu_pd(at.add(handed_phi(D)));
             prefetch::<512, _>(words.add(b));
             // t = ½ (B + B') ξ + ½ C1 η + ½ C1' η', then its work t·Δη.
             let mut t: [__m256d; D] = std::array::from_fn(|r| {
@@ -757,11 +766,7 @@ mod avx {
                 work = _mm256_fmadd_pd(t[r], _mm256_sub_pd(d[r], dp[r]), work);
             }
             // w_i += ω φ t·Δη on the lanes kept (the others add ω φ · 0).
-            let wp = if INVERSE {
-                times_omega::<INVERSE>(law, _mm256_loadu_pd(lengths.as_ptr().add(b)), phi)
-            } else {
-                phi
-            };
+            let wp = times_omega::<INVERSE>(law, _mm256_loadu_pd(lengths.as_ptr().add(b)), phi);
             let old = _mm256_loadu_pd(words.add(b));
             let new = _mm256_fmadd_pd(wp, _mm256_and_pd(work, keep), old);
             _mm256_storeu_pd(words.add(b), new);

@@ -545,49 +545,45 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     let mine = matrices
                         .get_mut(k * words..(k + 1) * words)
                         .unwrap_or_default();
-                    if let Some(w) = &vector {
+                    // The bonds broken, or with split work the entries that may fail.
+                    let vector_count = vector.as_ref().and_then(|w| {
                         // Under a critical energy the pre-pass reads only the status.
-                        let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, Some(s0))
-                            .under(D, softening, work, history)
+                        let mut nb = NodeBonds::of(i, flat, bonds, &mut *status, no_fail, Some(s0))
+                            .under(D, softening, work, &mut *history)
                             .with_previous(previous_flat, mine);
                         if split {
                             nb = nb.with_scratch(&mut scratch);
                         }
                         // SAFETY: AVX2 is available and neighbour indices are in bounds.
-                        if let Some(count) =
-                            unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
-                        {
-                            // With split work, the entries that may fail.
-                            if split {
-                                if count > 0 {
-                                    flag.push(i);
-                                }
-                                material.node_matrices(&points[k], mine);
-                            } else {
-                                broke += count;
-                            }
-                            continue;
-                        }
-                    }
-                    let mut acc = M::Point::default();
-                    broke += sweep.walk::<M>(i, r.clone(), status, history, true, |v| {
-                        material.accumulate(i, &mut acc, &v.geom);
-                        0
+                        unsafe { material.vector_prepass(&mut nb, w, &mut points[k]) }
                     });
-                    points[k] = material.finish_point(i, acc);
-                    if split {
+                    let count = vector_count.unwrap_or_else(|| {
+                        let mut acc = M::Point::default();
+                        let broke = sweep.walk::<M>(i, r.clone(), status, history, true, |v| {
+                            material.accumulate(i, &mut acc, &v.geom);
+                            0
+                        });
+                        points[k] = material.finish_point(i, acc);
+                        if !split {
+                            return broke;
+                        }
+                        debug_assert_eq!(broke, 0, "a critical energy breaks nothing here");
                         let pi = &points[k];
-                        let flags = sweep.walk::<M>(i, r, status, history, false, |v| {
+                        sweep.walk::<M>(i, r, status, history, false, |v| {
                             let g = &v.geom;
                             let step = g.y - (previous[v.j] - previous[i]);
                             v.history[0] += material.own_half_work(i, g, pi, mine, &step);
                             may_fail(damage, i, v.history[0], 0.5 * (g.phi_ij + g.phi_ji)) as u64
-                        });
-                        if flags > 0 {
-                            flag.push(i);
-                        }
-                        material.node_matrices(pi, mine);
+                        })
+                    });
+                    if !split {
+                        broke += count;
+                        continue;
                     }
+                    if count > 0 {
+                        flag.push(i);
+                    }
+                    material.node_matrices(&points[k], mine);
                 }
                 if !flag.is_empty() {
                     *flagged[nodes.start / NODE_CHUNK]
