@@ -29,3 +29,4 @@ pub mod solver;
 pub mod state;
 pub mod study;
 pub mod study_run;
+pub mod validation;

@@ -5,6 +5,7 @@ use peridyn::deck::study::LoadedStudy;
 use peridyn::deck::LoadedDeck;
 use peridyn::run::{check_timed, run_with, RunControl, RunOptions};
 use peridyn::study_run::{plan_study, run_study, StudyOptions};
+use peridyn::validation::{validate, Layout, ValidateOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -77,6 +78,30 @@ enum Command {
         /// Validate the study and every run's deck, print the runs, run nothing.
         #[arg(long)]
         dry_run: bool,
+    },
+    /// Reproduce the papers' results: run validation cases (validation/seed*/*.toml; all of
+    /// them when none is named), compare with the papers' numbers, and write
+    /// docs/validation.md with its figures (full size). Started again, a case continues where
+    /// it stopped.
+    Validate {
+        cases: Vec<PathBuf>,
+        /// The reduced (CI) version of each case: minutes, not hours; the report is left as
+        /// it is, and rows outside their reduced tolerance fail the command.
+        #[arg(long)]
+        reduced: bool,
+        /// Only write docs/validation.md again from the committed measurements.
+        #[arg(long, conflicts_with_all = ["cases", "reduced"])]
+        report: bool,
+        /// The validation folder (default: validation, or the one holding the named cases).
+        #[arg(long)]
+        root: Option<PathBuf>,
+        /// Results folder of the runs (default: results/validation or results/validation-reduced).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        #[arg(long)]
+        threads: Option<usize>,
+        #[arg(short, long)]
+        quiet: bool,
     },
     /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
     Bench {
@@ -211,6 +236,42 @@ grid written to {}",
             .map_err(|e| e.to_string())?;
             println!("{report}");
             Ok(())
+        })(),
+        Command::Validate {
+            cases,
+            reduced,
+            report,
+            root,
+            output,
+            threads,
+            quiet,
+        } => (|| {
+            let root = root
+                .or_else(|| {
+                    let paper_dir = cases.first()?.parent()?;
+                    Some(paper_dir.parent()?.to_path_buf())
+                })
+                .unwrap_or_else(|| PathBuf::from("validation"));
+            let layout = Layout::new(root);
+            let default_out = if reduced {
+                "validation-reduced"
+            } else {
+                "validation"
+            };
+            let opts = ValidateOptions {
+                out_dir: output.unwrap_or_else(|| PathBuf::from("results").join(default_out)),
+                reduced,
+                threads,
+                quiet,
+            };
+            let done = validate(&cases, &layout, &opts, !report)?;
+            println!("{done}");
+            match done.differing() {
+                n if reduced && n > 0 => {
+                    Err(format!("{n} result(s) outside their reduced tolerance"))
+                }
+                _ => Ok(()),
+            }
         })(),
         Command::Bench {
             bonds,

@@ -20,7 +20,7 @@ use crate::plot::morris_plot::write_morris_png;
 use crate::run::{check, run_with, RunControl, RunOptions};
 use crate::study::morris::{morris_statistics, Factor, FactorEffect, MorrisDesign, MorrisOptions};
 use crate::study::sweep::sweep_points;
-use crate::study::table::{Reduction, Table};
+use crate::study::table::{Reduction, Table, Window};
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -353,21 +353,28 @@ fn read_outputs(ls: &LoadedStudy, dir: &Path) -> Result<Vec<Option<f64>>, StudyR
             })?;
             let table =
                 Table::parse(&text).map_err(|e| fail(format!("{}: {e}", path.display())))?;
-            table
-                .reduce(&o.column, reduction(o), o.until)
-                .map_err(|e| fail(format!("{}: {e}", o.file)))
+            read_output(&table, o).map_err(|e| fail(format!("{}: {e}", o.file)))
         })
         .collect()
 }
 
-fn reduction(o: &OutputSpec) -> Reduction {
-    match o.reduce {
+/// One output of a run: its column of `table` reduced as the spec says.
+pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String> {
+    let how = match o.reduce {
         Reduce::Final => Reduction::Final,
         Reduce::Max => Reduction::Max,
         Reduce::Min => Reduction::Min,
         Reduce::MaxAbs => Reduction::MaxAbs,
         Reduce::FirstTimeAbove => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),
-    }
+        Reduce::Mean => Reduction::Mean,
+        Reduce::Count => Reduction::Count,
+        Reduce::Pearson => Reduction::Pearson(table.column(o.against.as_deref().unwrap_or(""))?),
+    };
+    let window = Window {
+        from: o.from,
+        until: o.until,
+    };
+    table.reduce(&o.column, how, window)
 }
 
 fn runs_header(ls: &LoadedStudy) -> Vec<String> {

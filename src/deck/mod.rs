@@ -2,6 +2,7 @@
 //! Every error names the file, line:column, key path and what was expected.
 
 pub mod build;
+pub mod case;
 pub mod contact;
 pub mod contact_schema;
 pub mod edit;

@@ -117,6 +117,10 @@ pub struct OutputSpec {
     /// Only rows with `time` ≤ this (s) count (seed 004 evaluates its study up to a given
     /// grip displacement).
     pub until: Option<f64>,
+    /// Only rows with `time` ≥ this (s) count (a crack speed once the crack runs).
+    pub from: Option<f64>,
+    /// `pearson`: the second column of the same file.
+    pub against: Option<String>,
 }
 
 fn default_file() -> String {
@@ -136,6 +140,13 @@ pub enum Reduce {
     /// The `time` of the first row whose value exceeds `threshold` (e.g. crack initiation:
     /// `broken_bonds` above 0); a run that never passes it has no value.
     FirstTimeAbove,
+    /// The mean of the values (a crack speed over a window of time).
+    Mean,
+    /// How many rows have a value (the forks of `branching.csv`).
+    Count,
+    /// The Pearson correlation with the column `against` (a crack path against its
+    /// reference in `crack_path_comparison.csv`; seed 003 Eq. 17).
+    Pearson,
 }
 
 /// A parsed and validated study with its base deck.
@@ -394,9 +405,31 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
             ),
             _ => {}
         }
-        if let Some(t) = o.until {
-            if !(t.is_finite() && t >= 0.0) {
-                issue(at("until"), format!("expected a time ≥ 0 s, got {t}"));
+        match (o.reduce, &o.against) {
+            (Reduce::Pearson, None) => issue(
+                at("reduce"),
+                "pearson needs `against`: the second column of the file".into(),
+            ),
+            (Reduce::Pearson, Some(_)) => {}
+            (_, Some(_)) => issue(
+                at("against"),
+                "`against` is used by reduce = \"pearson\" only".into(),
+            ),
+            _ => {}
+        }
+        for (key, bound) in [("until", o.until), ("from", o.from)] {
+            if let Some(t) = bound {
+                if !(t.is_finite() && t >= 0.0) {
+                    issue(at(key), format!("expected a time ≥ 0 s, got {t}"));
+                }
+            }
+        }
+        if let (Some(from), Some(until)) = (o.from, o.until) {
+            if from > until {
+                issue(
+                    at("from"),
+                    format!("the window is empty: from = {from} s is after until = {until} s"),
+                );
             }
         }
     }

@@ -54,10 +54,24 @@ pub fn write_curves_png(
     y_label: &str,
     series: &[(&str, &[(f64, f64)])],
 ) -> Result<(), PlotError> {
-    let rgb = render_curves(title, x_label, y_label, series).map_err(|msg| PlotError::Draw {
-        path: path.to_path_buf(),
-        msg,
-    })?;
+    write_curves_and_points_png(path, title, x_label, y_label, series, &[])
+}
+
+/// `write_curves_png` with sets of points drawn as marks, not lines (e.g. a paper's values
+/// beside the computed curves).
+pub fn write_curves_and_points_png(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(&str, &[(f64, f64)])],
+    points: &[(&str, &[(f64, f64)])],
+) -> Result<(), PlotError> {
+    let rgb =
+        render_curves(title, x_label, y_label, series, points).map_err(|msg| PlotError::Draw {
+            path: path.to_path_buf(),
+            msg,
+        })?;
     save_png_atomic(path, &rgb, SIZE.0, SIZE.1)
 }
 
@@ -106,9 +120,10 @@ pub(crate) fn render_curves(
     x_label: &str,
     y_label: &str,
     series: &[(&str, &[(f64, f64)])],
+    points: &[(&str, &[(f64, f64)])],
 ) -> Result<Vec<u8>, String> {
     font::ensure_font();
-    let all = || series.iter().flat_map(|(_, pts)| pts.iter());
+    let all = || series.iter().chain(points).flat_map(|(_, pts)| pts.iter());
     let xr = axis_range(all().map(|p| p.0), 0.0);
     let yr = axis_range(all().map(|p| p.1), 0.05);
 
@@ -182,7 +197,18 @@ pub(crate) fn render_curves(
                 }
             }
         }
-        if !series.is_empty() {
+        for (k, (name, pts)) in points.iter().enumerate() {
+            // Black and dark grey crosses: apart from every line colour.
+            let colour = [BLACK, RGBColor(110, 110, 110)][k % 2];
+            let style = colour.stroke_width(2);
+            let finite = pts.iter().filter(|p| p.0.is_finite() && p.1.is_finite());
+            chart
+                .draw_series(finite.map(|&p| Cross::new(p, 6, style)))
+                .map_err(err)?
+                .label(*name)
+                .legend(move |(x, y)| Cross::new((x + 10, y), 6, style));
+        }
+        if !series.is_empty() || !points.is_empty() {
             draw_legend(&mut chart).map_err(err)?;
         }
         root.present().map_err(err)?;
@@ -230,7 +256,7 @@ mod tests {
         assert!(bytes.len() > 5_000, "{} bytes", bytes.len());
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1, "no temp file left");
 
-        let rgb = render_curves("Energy", "time (s)", "energy (J)", &series).unwrap();
+        let rgb = render_curves("Energy", "time (s)", "energy (J)", &series, &[]).unwrap();
         assert!(count_colour(&rgb, COLOURS[0]) > 500, "first series drawn");
         assert!(count_colour(&rgb, COLOURS[1]) > 500, "second series drawn");
         fs::remove_dir_all(&dir).unwrap();
@@ -274,11 +300,11 @@ mod tests {
         let zero = [(0.0, 0.0)];
         let gaps = [(0.0, 1.0), (1.0, f64::NAN), (2.0, 2.0), (3.0, 2.5)];
         let empty: [(f64, f64); 0] = [];
-        render_curves("t", "x", "y", &[]).unwrap();
-        render_curves("t", "x", "y", &[("empty", &empty)]).unwrap();
-        render_curves("t", "x", "y", &[("c", &constant)]).unwrap();
-        render_curves("t", "x", "y", &[("z", &zero)]).unwrap();
-        render_curves("t", "x", "y", &[("g", &gaps), ("e", &empty)]).unwrap();
+        render_curves("t", "x", "y", &[], &[]).unwrap();
+        render_curves("t", "x", "y", &[("empty", &empty)], &[]).unwrap();
+        render_curves("t", "x", "y", &[("c", &constant)], &[("p", &constant)]).unwrap();
+        render_curves("t", "x", "y", &[("z", &zero)], &[]).unwrap();
+        render_curves("t", "x", "y", &[("g", &gaps), ("e", &empty)], &[]).unwrap();
         let r = axis_range([3.0, 3.0].into_iter(), 0.05);
         assert!(
             (r.start - 2.7).abs() < 1e-12 && (r.end - 3.3).abs() < 1e-12,

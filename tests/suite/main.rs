@@ -35,5 +35,6 @@ mod separation_work;
 mod softening;
 mod staged;
 mod study;
+mod validation;
 mod wave_speed;
 mod wedge_splitting;

@@ -1,0 +1,534 @@
+//! Validation case files (`validation/seedNNN/*.toml`; the format is in `validation/README.md`):
+//! a deck at a paper's scale, the numbers set for its full and reduced versions, an optional
+//! series of one number (the paper's parameter or a convergence series), the outputs read from
+//! every run (a study's outputs), and the paper's results those outputs are compared with.
+//! Parsed and validated like a deck: every problem is named at its file, line and key. A case
+//! runs as a one-factor sweep study (`study_run`), which gives it resumption for free.
+
+use super::edit::number_at;
+use super::study::{FixedSpec, LoadedStudy, OutputSpec, StudyFile, StudyMethod};
+use super::{locate_issues, parse_located, DeckError, DeckIssue, KeyPath, LoadedDeck};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A case file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseFile {
+    pub version: u32,
+    /// The seed number of the paper ("002").
+    pub paper: String,
+    pub title: String,
+    /// Where in the paper: section, figure, table.
+    pub section: String,
+    /// The deck the runs start from, relative to the case file; none for a case whose rows
+    /// are all `not_run`.
+    pub deck: Option<PathBuf>,
+    /// A paragraph for the report: what is reproduced, and every input the paper does not
+    /// state with how it was chosen.
+    #[serde(default)]
+    pub about: String,
+    /// Numbers set in every run.
+    #[serde(default)]
+    pub fixed: Vec<FixedSpec>,
+    /// Numbers set only in the reduced (CI) version, over `fixed`.
+    #[serde(default)]
+    pub reduced: Vec<FixedSpec>,
+    pub series: Option<SeriesSpec>,
+    #[serde(default)]
+    pub outputs: Vec<OutputSpec>,
+    /// Outputs made of other outputs (a count over several boxes, a difference of two times).
+    #[serde(default)]
+    pub derived: Vec<DerivedSpec>,
+    #[serde(default)]
+    pub results: Vec<ResultSpec>,
+    #[serde(default)]
+    pub not_run: Vec<NotRunSpec>,
+    #[serde(default)]
+    pub plots: Vec<PlotSpec>,
+}
+
+/// One number of the deck swept: a run per value.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeriesSpec {
+    pub key: String,
+    pub values: Vec<f64>,
+    /// The values of the reduced version (default: the full ones).
+    pub reduced: Option<Vec<f64>>,
+}
+
+/// An output computed from others of the same run: exactly one of `sum`, `difference`
+/// (first − second) or `ratio` (first / second).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DerivedSpec {
+    pub name: String,
+    pub sum: Option<Vec<String>>,
+    pub difference: Option<[String; 2]>,
+    pub ratio: Option<[String; 2]>,
+}
+
+impl DerivedSpec {
+    /// The outputs it reads.
+    pub fn inputs(&self) -> Vec<&String> {
+        let mut v: Vec<&String> = Vec::new();
+        v.extend(self.sum.iter().flatten());
+        v.extend(self.difference.iter().flatten());
+        v.extend(self.ratio.iter().flatten());
+        v
+    }
+
+    /// Its value from the values of its inputs (`None` when one has none).
+    pub fn value(&self, of: impl Fn(&str) -> Option<f64>) -> Option<f64> {
+        if let Some(names) = &self.sum {
+            return names.iter().map(|n| of(n)).sum();
+        }
+        if let Some([a, b]) = &self.difference {
+            return Some(of(a)? - of(b)?);
+        }
+        if let Some([a, b]) = &self.ratio {
+            return Some(of(a)? / of(b)?);
+        }
+        None
+    }
+}
+
+/// How a result behaves over the series.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Trend {
+    Increasing,
+    Decreasing,
+    /// Every value within `tolerance` (relative) of their mean.
+    Constant,
+}
+
+/// A result of the paper and the output it is compared with.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResultSpec {
+    pub id: String,
+    pub quantity: String,
+    pub source: String,
+    /// The paper's number in `unit` (none for a trend).
+    pub paper: Option<f64>,
+    #[serde(default)]
+    pub unit: String,
+    pub output: String,
+    /// With a series: the series value whose run the row reads.
+    pub at: Option<f64>,
+    /// measured = output × scale.
+    #[serde(default = "one")]
+    pub scale: f64,
+    pub tolerance: Option<f64>,
+    pub abs_tolerance: Option<f64>,
+    /// Why the tolerance is what it is.
+    #[serde(default)]
+    pub why: String,
+    pub reduced_tolerance: Option<f64>,
+    pub reduced_abs_tolerance: Option<f64>,
+    #[serde(default)]
+    pub why_reduced: String,
+    /// Why a full run differs from the paper: erratum, inferred input or model limitation.
+    #[serde(default)]
+    pub explanation: String,
+    pub trend: Option<Trend>,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// A result of the paper that cannot be run here, and what it needs.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NotRunSpec {
+    pub id: String,
+    pub quantity: String,
+    pub source: String,
+    pub paper: Option<f64>,
+    #[serde(default)]
+    pub unit: String,
+    pub needs: String,
+}
+
+/// A figure of the report.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSpec {
+    /// Letters, digits, `_` or `-`: it names the PNG.
+    pub name: String,
+    pub title: String,
+    pub x: AxisSpec,
+    pub y: AxisSpec,
+    /// The paper's points, in the plot's units.
+    #[serde(default)]
+    pub paper: Vec<[f64; 2]>,
+}
+
+/// What an axis shows: the series value, an output (a point per run), or a column of a CSV
+/// file of the runs (a curve per run).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisSpec {
+    #[serde(default)]
+    pub series: bool,
+    pub output: Option<String>,
+    pub file: Option<String>,
+    pub column: Option<String>,
+    #[serde(default = "one")]
+    pub scale: f64,
+    #[serde(default)]
+    pub label: String,
+}
+
+impl AxisSpec {
+    /// A curve of a CSV column, one per run (rather than one point per run).
+    pub fn is_column(&self) -> bool {
+        self.column.is_some()
+    }
+}
+
+/// A parsed and validated case with its deck.
+#[derive(Debug, Clone)]
+pub struct LoadedCase {
+    pub case: CaseFile,
+    pub file: PathBuf,
+    pub src: String,
+    pub deck: Option<LoadedDeck>,
+}
+
+impl LoadedCase {
+    /// Reads, parses and validates a case file and its deck.
+    pub fn from_file(path: &Path) -> Result<Self, DeckError> {
+        let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io {
+            file: path.display().to_string(),
+            source,
+        })?;
+        let case: CaseFile = parse_located(&src, path)?;
+        let fail = |issues: Vec<DeckIssue>| locate_issues(&src, path, issues);
+        let deck = match &case.deck {
+            None => None,
+            Some(d) => {
+                let deck_path = path.parent().unwrap_or(Path::new("")).join(d);
+                match std::fs::read_to_string(&deck_path) {
+                    Ok(text) => Some(LoadedDeck::from_str(&text, &deck_path)?),
+                    Err(e) => {
+                        return Err(fail(vec![DeckIssue::new(
+                            "deck",
+                            format!("cannot read the deck {}: {e}", deck_path.display()),
+                        )]))
+                    }
+                }
+            }
+        };
+        let issues = validate(&case, deck.as_ref().map(|d| d.src.as_str()));
+        if !issues.is_empty() {
+            return Err(fail(issues));
+        }
+        Ok(LoadedCase {
+            case,
+            file: path.to_path_buf(),
+            src,
+            deck,
+        })
+    }
+
+    /// The case's file name without `.toml`: it names its results folder and measured file.
+    pub fn name(&self) -> String {
+        self.file
+            .file_stem()
+            .map_or("case".into(), |s| s.to_string_lossy().into_owned())
+    }
+
+    /// The series values of the full or reduced version (one run without a series).
+    pub fn series_values(&self, reduced: bool) -> Vec<f64> {
+        match &self.case.series {
+            None => Vec::new(),
+            Some(s) if reduced => s.reduced.clone().unwrap_or_else(|| s.values.clone()),
+            Some(s) => s.values.clone(),
+        }
+    }
+
+    /// The case as a sweep study over its series (no factor without one), with the reduced
+    /// numbers over the fixed ones when `reduced`. `None` for a case without a deck.
+    pub fn study(&self, reduced: bool) -> Option<LoadedStudy> {
+        let base = self.deck.clone()?;
+        let mut fixed = self.case.fixed.clone();
+        if reduced {
+            for r in &self.case.reduced {
+                fixed.retain(|f| f.key != r.key);
+                fixed.push(r.clone());
+            }
+        }
+        let factors = self
+            .case
+            .series
+            .iter()
+            .map(|s| super::study::FactorSpec {
+                key: s.key.clone(),
+                min: None,
+                max: None,
+                values: Some(self.series_values(reduced)),
+            })
+            .collect::<Vec<_>>();
+        let keys = factors.iter().map(|f| KeyPath::parse(&f.key)).collect();
+        Some(LoadedStudy {
+            study: StudyFile {
+                version: 1,
+                deck: self.case.deck.clone().unwrap_or_default(),
+                method: StudyMethod::Sweep,
+                morris: None,
+                fixed,
+                factors,
+                outputs: self.case.outputs.clone(),
+            },
+            file: self.file.clone(),
+            src: self.src.clone(),
+            base,
+            keys,
+        })
+    }
+}
+
+fn is_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
+    let mut issues = Vec::new();
+    let mut issue = |path: String, message: String| issues.push(DeckIssue::new(&path, message));
+    if case.version != 1 {
+        issue(
+            "version".into(),
+            format!(
+                "case file version {} is not known; expected 1",
+                case.version
+            ),
+        );
+    }
+    let mut key_exists = |path: String, key: &str| {
+        if let Some(src) = deck {
+            if let Err(e) = number_at(src, &KeyPath::parse(key)) {
+                issue(path, e);
+            }
+        }
+    };
+    for (list, name) in [(&case.fixed, "fixed"), (&case.reduced, "reduced")] {
+        for (k, f) in list.iter().enumerate() {
+            key_exists(format!("{name}[{k}].key"), &f.key);
+        }
+    }
+    if let Some(s) = &case.series {
+        key_exists("series.key".into(), &s.key);
+    }
+    if let Some(s) = &case.series {
+        for (name, values) in [("values", Some(&s.values)), ("reduced", s.reduced.as_ref())] {
+            match values {
+                Some(v) if v.is_empty() => issue(
+                    format!("series.{name}"),
+                    "expected at least one value".into(),
+                ),
+                Some(v) if v.iter().any(|x| !x.is_finite()) => issue(
+                    format!("series.{name}"),
+                    "values must be finite numbers".into(),
+                ),
+                _ => {}
+            }
+        }
+    }
+    let has_runs = deck.is_some();
+    if !has_runs && !(case.results.is_empty() && case.outputs.is_empty()) {
+        issue(
+            "deck".into(),
+            "a case with results or outputs needs a deck to run".into(),
+        );
+    }
+    for (k, o) in case.outputs.iter().enumerate() {
+        if !is_name(&o.name) {
+            issue(
+                format!("outputs[{k}].name"),
+                format!("expected letters, digits, '_' or '-', got {:?}", o.name),
+            );
+        }
+        if case.outputs[..k].iter().any(|p| p.name == o.name) {
+            issue(
+                format!("outputs[{k}].name"),
+                format!("output `{}` is named twice", o.name),
+            );
+        }
+    }
+    for (k, d) in case.derived.iter().enumerate() {
+        let at = |key: &str| format!("derived[{k}].{key}");
+        let known_before = |n: &str| {
+            case.outputs.iter().any(|o| o.name == n)
+                || case.derived[..k].iter().any(|e| e.name == n)
+        };
+        if !is_name(&d.name) {
+            issue(
+                at("name"),
+                format!("expected letters, digits, '_' or '-', got {:?}", d.name),
+            );
+        }
+        if known_before(&d.name) {
+            issue(at("name"), format!("output `{}` is named twice", d.name));
+        }
+        let kinds =
+            d.sum.is_some() as usize + d.difference.is_some() as usize + d.ratio.is_some() as usize;
+        if kinds != 1 || d.sum.as_ref().is_some_and(|s| s.is_empty()) {
+            issue(
+                at("name"),
+                "expected one of `sum = [outputs…]`, `difference = [a, b]` or `ratio = [a, b]`"
+                    .into(),
+            );
+        }
+        for input in d.inputs() {
+            if !known_before(input) {
+                issue(
+                    at("name"),
+                    format!("no output `{input}` above it (outputs and earlier derived ones)"),
+                );
+            }
+        }
+    }
+    let output_known = |name: &str| {
+        case.outputs.iter().any(|o| o.name == name) || case.derived.iter().any(|d| d.name == name)
+    };
+    let outputs = || {
+        case.outputs
+            .iter()
+            .map(|o| o.name.as_str())
+            .chain(case.derived.iter().map(|d| d.name.as_str()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    for (k, r) in case.results.iter().enumerate() {
+        let at = |key: &str| format!("results[{k}].{key}");
+        if !output_known(&r.output) {
+            issue(
+                at("output"),
+                format!("no output `{}` (the outputs are: {})", r.output, outputs()),
+            );
+        }
+        let series = case.series.as_ref();
+        match (series, r.at, r.trend) {
+            (_, Some(_), Some(_)) => issue(
+                at("at"),
+                "a trend reads every run of the series; remove `at`".into(),
+            ),
+            (None, Some(_), _) => issue(at("at"), "`at` needs a [series]".into()),
+            (None, None, Some(_)) => issue(at("trend"), "a trend needs a [series]".into()),
+            (Some(s), Some(a), _) if !s.values.contains(&a) => issue(
+                at("at"),
+                format!("{a} is not one of the series values {:?}", s.values),
+            ),
+            (Some(_), None, None) => issue(
+                at("at"),
+                "with a [series], a value row names the series value it reads (`at`)".into(),
+            ),
+            _ => {}
+        }
+        if r.trend.is_none() {
+            if r.paper.is_none() {
+                issue(at("paper"), "a value row needs the paper's number".into());
+            }
+            if r.tolerance.is_none() && r.abs_tolerance.is_none() {
+                issue(
+                    at("tolerance"),
+                    "a value row needs `tolerance` (relative) or `abs_tolerance`".into(),
+                );
+            }
+        } else if r.trend == Some(Trend::Constant) && r.tolerance.is_none() {
+            issue(
+                at("tolerance"),
+                "a constant trend needs `tolerance`: how far from the mean counts as constant"
+                    .into(),
+            );
+        }
+        let has_tolerance = r.tolerance.is_some() || r.abs_tolerance.is_some();
+        if has_tolerance && r.why.trim().is_empty() {
+            issue(at("why"), "say why the tolerance is what it is".into());
+        }
+        let reduced = r.reduced_tolerance.is_some() || r.reduced_abs_tolerance.is_some();
+        if reduced && r.why_reduced.trim().is_empty() {
+            issue(
+                at("why_reduced"),
+                "say how the reduced tolerance was measured and why it holds".into(),
+            );
+        }
+        for (key, v) in [
+            ("tolerance", r.tolerance),
+            ("abs_tolerance", r.abs_tolerance),
+            ("reduced_tolerance", r.reduced_tolerance),
+            ("reduced_abs_tolerance", r.reduced_abs_tolerance),
+        ] {
+            if v.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+                issue(at(key), "expected a finite number ≥ 0".into());
+            }
+        }
+        if !r.scale.is_finite() || r.scale == 0.0 {
+            issue(at("scale"), "expected a finite, non-zero factor".into());
+        }
+    }
+    let mut ids: Vec<&str> = case.results.iter().map(|r| r.id.as_str()).collect();
+    ids.extend(case.not_run.iter().map(|r| r.id.as_str()));
+    for (k, id) in ids.iter().enumerate() {
+        if id.trim().is_empty() {
+            issue("results".into(), format!("row {k} has an empty id"));
+        } else if ids[..k].contains(id) {
+            issue("results".into(), format!("the id `{id}` is used twice"));
+        }
+    }
+    for (k, r) in case.not_run.iter().enumerate() {
+        if r.needs.trim().is_empty() {
+            issue(
+                format!("not_run[{k}].needs"),
+                "say what the result needs to be run".into(),
+            );
+        }
+    }
+    for (k, p) in case.plots.iter().enumerate() {
+        let at = |key: &str| format!("plots[{k}].{key}");
+        if !is_name(&p.name) {
+            issue(
+                at("name"),
+                format!("expected letters, digits, '_' or '-', got {:?}", p.name),
+            );
+        }
+        for (axis, a) in [("x", &p.x), ("y", &p.y)] {
+            let kinds =
+                a.series as usize + a.output.is_some() as usize + a.column.is_some() as usize;
+            if kinds != 1 {
+                issue(
+                    at(axis),
+                    "expected one of `series = true`, `output = …` or `file`/`column`".into(),
+                );
+            }
+            if a.file.is_some() && a.column.is_none() {
+                issue(at(axis), "a `file` needs its `column`".into());
+            }
+            if a.series && case.series.is_none() {
+                issue(at(axis), "`series = true` needs a [series]".into());
+            }
+            if let Some(o) = &a.output {
+                if !output_known(o) {
+                    issue(
+                        at(axis),
+                        format!("no output `{o}` (the outputs are: {})", outputs()),
+                    );
+                }
+            }
+        }
+        if p.x.is_column() != p.y.is_column() {
+            issue(
+                at("y"),
+                "both axes are columns of a file (a curve per run) or neither (a point per run)"
+                    .into(),
+            );
+        }
+    }
+    issues
+}

@@ -1,0 +1,83 @@
+//! What a case's runs measured, kept so that the report can be written again without running:
+//! `validation/measured/<paper folder>-<case>.toml` for the full runs (committed: a few lines),
+//! the same file in the results folder for reduced runs. The report judges these outputs
+//! against the case file as it is now, so a changed tolerance or explanation needs no run.
+
+use crate::atomic_file::write_atomic;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Measured {
+    /// The case file, relative to the repository.
+    pub case: String,
+    /// "full" or "reduced".
+    pub size: String,
+    /// The wall time of all runs, as each run's summary reports it.
+    pub wall_minutes: f64,
+    /// The threads each run used.
+    pub threads: usize,
+    pub runs: Vec<MeasuredRun>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredRun {
+    /// The series value of the run (none without a series).
+    pub series: Option<f64>,
+    /// "ok" or "failed: …".
+    pub status: String,
+    pub wall_minutes: f64,
+    /// Each output that has a value.
+    pub outputs: BTreeMap<String, f64>,
+}
+
+impl Measured {
+    pub fn read(path: &Path) -> Result<Option<Measured>, String> {
+        match std::fs::read_to_string(path) {
+            Ok(text) => toml::from_str(&text)
+                .map(Some)
+                .map_err(|e| format!("{}: {}", path.display(), e.message())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(format!("cannot read {}: {e}", path.display())),
+        }
+    }
+
+    pub fn write(&self, path: &Path) -> Result<(), String> {
+        let text = toml::to_string(self).map_err(|e| e.to_string())?;
+        let text = format!(
+            "# What `peridyn validate` measured on the {} runs of {}; the report is written from it.\n{text}",
+            self.size, self.case
+        );
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        }
+        write_atomic(path, text.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+}
+
+impl MeasuredRun {
+    /// Its outputs and the case's derived outputs, computed in order from them.
+    pub fn values(&self, case: &crate::deck::case::LoadedCase) -> BTreeMap<String, f64> {
+        let mut values = self.outputs.clone();
+        for d in &case.case.derived {
+            if let Some(v) = d.value(|n| values.get(n).copied()) {
+                values.insert(d.name.clone(), v);
+            }
+        }
+        values
+    }
+}
+
+/// The wall time a finished run's `summary.txt` reports ("finished … in S s wall"), in minutes.
+pub fn run_wall_minutes(run_dir: &Path) -> Option<f64> {
+    let text = std::fs::read_to_string(run_dir.join("summary.txt")).ok()?;
+    let line = text.lines().find(|l| l.starts_with("finished"))?;
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let at = words.iter().position(|w| *w == "wall,")?;
+    Some(words.get(at.checked_sub(2)?)?.parse::<f64>().ok()? / 60.0)
+}

@@ -1,0 +1,324 @@
+//! `peridyn validate`: the papers' results as re-runnable comparisons. Each case file
+//! (`deck::case`) runs as a one-factor sweep study (`study_run`, so a stopped validation
+//! continues where it stopped), its outputs are kept (`measured`), judged against the paper's
+//! numbers (`verdict`), drawn beside the paper's points (`figures`) and written into
+//! `docs/validation.md` (`report`).
+
+pub mod figures;
+pub mod measured;
+pub mod report;
+pub mod verdict;
+
+use crate::deck::case::LoadedCase;
+use crate::study_run::{run_study, StudyOptions};
+use measured::{run_wall_minutes, Measured, MeasuredRun};
+use report::CaseEntry;
+use std::path::{Path, PathBuf};
+
+/// Where and how cases run.
+#[derive(Debug, Clone)]
+pub struct ValidateOptions {
+    /// Runs go to `<out_dir>/<paper folder>/<case>/`.
+    pub out_dir: PathBuf,
+    /// The reduced (CI) version of each case.
+    pub reduced: bool,
+    pub threads: Option<usize>,
+    pub quiet: bool,
+}
+
+/// The repository's validation folder layout, found from a case file or the working folder.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// `validation/`.
+    pub root: PathBuf,
+}
+
+impl Layout {
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        Layout { root: root.into() }
+    }
+
+    /// Every case file: `validation/seed*/*.toml`, sorted.
+    pub fn cases(&self) -> Result<Vec<PathBuf>, String> {
+        let mut cases = Vec::new();
+        let read = |dir: &Path| {
+            std::fs::read_dir(dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))
+        };
+        for entry in read(&self.root)? {
+            let dir = entry.map_err(|e| e.to_string())?.path();
+            let is_paper = dir
+                .file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("seed"));
+            if !(dir.is_dir() && is_paper) {
+                continue;
+            }
+            for file in read(&dir)? {
+                let file = file.map_err(|e| e.to_string())?.path();
+                if file.extension().is_some_and(|e| e == "toml") {
+                    cases.push(file);
+                }
+            }
+        }
+        cases.sort();
+        Ok(cases)
+    }
+
+    /// `<paper folder>-<case>`: a case's name across papers.
+    pub fn key(case: &LoadedCase) -> String {
+        let folder = case
+            .file
+            .parent()
+            .and_then(|p| p.file_name())
+            .map_or(String::new(), |f| f.to_string_lossy().into_owned());
+        format!("{folder}-{}", case.name())
+    }
+
+    /// The committed measurement of a case's full runs.
+    pub fn measured_file(&self, case: &LoadedCase) -> PathBuf {
+        self.root
+            .join("measured")
+            .join(format!("{}.toml", Self::key(case)))
+    }
+
+    /// `docs/` beside `validation/`.
+    pub fn docs(&self) -> PathBuf {
+        self.root.parent().unwrap_or(Path::new(".")).join("docs")
+    }
+
+    /// `README.md` beside `validation/`.
+    pub fn readme(&self) -> PathBuf {
+        self.root
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("README.md")
+    }
+
+    /// A path as the report shows it: relative to the repository.
+    pub fn relative(&self, path: &Path) -> String {
+        let top = self.root.parent().unwrap_or(Path::new(""));
+        path.strip_prefix(top).unwrap_or(path).display().to_string()
+    }
+}
+
+/// Runs a case (or continues it) and returns what it measured.
+pub fn run_case(
+    case: &LoadedCase,
+    layout: &Layout,
+    opts: &ValidateOptions,
+) -> Result<Measured, String> {
+    let size = if opts.reduced { "reduced" } else { "full" };
+    let mut measured = Measured {
+        case: layout.relative(&case.file),
+        size: size.into(),
+        threads: opts
+            .threads
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+        ..Measured::default()
+    };
+    let Some(study) = case.study(opts.reduced) else {
+        return Ok(measured);
+    };
+    let out = case_dir(case, opts);
+    let report = run_study(
+        &study,
+        &StudyOptions {
+            out_dir: out.clone(),
+            threads: opts.threads,
+            quiet: opts.quiet,
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    for (k, run) in report.runs.iter().enumerate() {
+        let dir = out.join("runs").join(format!("run_{k:04}"));
+        let minutes = run_wall_minutes(&dir).unwrap_or(0.0);
+        measured.wall_minutes += minutes;
+        measured.runs.push(MeasuredRun {
+            series: run.values.first().copied(),
+            status: run.status.clone(),
+            wall_minutes: minutes,
+            outputs: study
+                .study
+                .outputs
+                .iter()
+                .zip(&run.outputs)
+                .filter_map(|(o, v)| v.map(|v| (o.name.clone(), v)))
+                .collect(),
+        });
+    }
+    Ok(measured)
+}
+
+/// The folder a case's runs go to.
+pub fn case_dir(case: &LoadedCase, opts: &ValidateOptions) -> PathBuf {
+    opts.out_dir.join(Layout::key(case))
+}
+
+/// Writes a full measurement and the case's figures where the report finds them.
+pub fn keep_full(
+    case: &LoadedCase,
+    measured: &Measured,
+    layout: &Layout,
+    opts: &ValidateOptions,
+) -> Result<(), String> {
+    measured.write(&layout.measured_file(case))?;
+    figures::draw(
+        case,
+        measured,
+        &case_dir(case, opts).join("runs"),
+        &layout.docs().join("validation"),
+    )?;
+    Ok(())
+}
+
+/// Every case of `layout` with its committed measurement; ids must be unique over all cases.
+pub fn load_all(layout: &Layout) -> Result<Vec<CaseEntry>, String> {
+    let mut entries = Vec::new();
+    let mut ids: Vec<(String, String)> = Vec::new();
+    for file in layout.cases()? {
+        let case = LoadedCase::from_file(&file).map_err(|e| e.to_string())?;
+        let path = layout.relative(&file);
+        for id in case
+            .case
+            .results
+            .iter()
+            .map(|r| &r.id)
+            .chain(case.case.not_run.iter().map(|r| &r.id))
+        {
+            if let Some((_, other)) = ids.iter().find(|(i, _)| i == id) {
+                return Err(format!("{path}: the id `{id}` is also used in {other}"));
+            }
+            ids.push((id.clone(), path.clone()));
+        }
+        let measured = Measured::read(&layout.measured_file(&case))?;
+        entries.push(CaseEntry {
+            case,
+            measured,
+            path,
+        });
+    }
+    Ok(entries)
+}
+
+/// The texts of `docs/validation.md` and of `README.md` (its summary table rewritten), from
+/// every case and its committed measurement.
+pub fn report_texts(layout: &Layout) -> Result<(String, Option<String>), String> {
+    let entries = load_all(layout)?;
+    let report = report::markdown(&entries, "validation", &layout.docs().join("validation"));
+    let readme = std::fs::read_to_string(layout.readme())
+        .ok()
+        .and_then(|r| report::with_readme_summary(&r, &report::readme_summary(&entries)));
+    Ok((report, readme))
+}
+
+/// Writes `docs/validation.md` and the README's summary again.
+pub fn write_report(layout: &Layout) -> Result<PathBuf, String> {
+    let (report, readme) = report_texts(layout)?;
+    let write = |path: PathBuf, text: String| {
+        crate::atomic_file::write_atomic(&path, text.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    };
+    if let Some(readme) = readme {
+        write(layout.readme(), readme)?;
+    }
+    let path = layout.docs().join("validation.md");
+    write(path.clone(), report)?;
+    Ok(path)
+}
+
+/// What `validate` did: each case's rows at the size it ran.
+pub struct Validation {
+    pub cases: Vec<(String, Vec<verdict::Row>)>,
+    /// The report written (full runs and `--report`).
+    pub report: Option<PathBuf>,
+}
+
+impl Validation {
+    /// Rows outside their tolerance.
+    pub fn differing(&self) -> usize {
+        self.cases
+            .iter()
+            .flat_map(|(_, rows)| rows)
+            .filter(|r| r.status == verdict::Status::Differs)
+            .count()
+    }
+}
+
+impl std::fmt::Display for Validation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use verdict::number;
+        for (case, rows) in &self.cases {
+            writeln!(f, "{case}")?;
+            for r in rows {
+                let show = |v: Option<f64>| v.map_or("—".to_string(), number);
+                let measured = if r.values.is_empty() {
+                    show(r.measured)
+                } else {
+                    r.values
+                        .iter()
+                        .map(|v| number(*v))
+                        .collect::<Vec<_>>()
+                        .join(" → ")
+                };
+                writeln!(
+                    f,
+                    "  {:<9} {:<34} peridyn {measured} (paper {}) {} {}",
+                    r.status.to_string(),
+                    r.id,
+                    show(r.paper),
+                    r.unit,
+                    r.tolerance
+                )?;
+            }
+        }
+        if let Some(p) = &self.report {
+            write!(f, "report written to {}", p.display())?;
+        }
+        Ok(())
+    }
+}
+
+/// Runs `files` (every case of `layout` when empty) at the size `opts` says and judges them;
+/// full runs keep their measurements and figures and write the report again. `run = false`:
+/// only the report, from the committed measurements.
+pub fn validate(
+    files: &[PathBuf],
+    layout: &Layout,
+    opts: &ValidateOptions,
+    run: bool,
+) -> Result<Validation, String> {
+    let files = if files.is_empty() {
+        layout.cases()?
+    } else {
+        files.to_vec()
+    };
+    let mut done = Validation {
+        cases: Vec::new(),
+        report: None,
+    };
+    if run {
+        for file in &files {
+            let case = LoadedCase::from_file(file).map_err(|e| e.to_string())?;
+            if !opts.quiet {
+                println!("case {}: {}", layout.relative(file), case.case.title);
+            }
+            let measured = run_case(&case, layout, opts)?;
+            if opts.reduced {
+                measured.write(&case_dir(&case, opts).join("measured.toml"))?;
+                figures::draw(
+                    &case,
+                    &measured,
+                    &case_dir(&case, opts).join("runs"),
+                    &case_dir(&case, opts).join("figures"),
+                )?;
+            } else {
+                keep_full(&case, &measured, layout, opts)?;
+            }
+            let rows = verdict::judge_case(&case, Some(&measured), opts.reduced);
+            done.cases.push((layout.relative(file), rows));
+        }
+    }
+    if !run || !opts.reduced {
+        done.report = Some(write_report(layout)?);
+    }
+    Ok(done)
+}

@@ -1,0 +1,216 @@
+//! A paper's result against what a case measured: PASS within the row's tolerance, DIFFERS
+//! outside it, NOT RUN without a measurement. The same rule serves the full runs (the row's
+//! `tolerance`) and the reduced ones in CI (its `reduced_tolerance`).
+
+use super::measured::Measured;
+use crate::deck::case::{LoadedCase, ResultSpec, Trend};
+use std::fmt;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    Pass,
+    Differs,
+    NotRun,
+    /// Measured, with no tolerance at this size (a reduced run of a row CI does not assert).
+    Unchecked,
+}
+
+impl fmt::Display for Status {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Status::Pass => "PASS",
+            Status::Differs => "DIFFERS",
+            Status::NotRun => "NOT RUN",
+            Status::Unchecked => "measured",
+        })
+    }
+}
+
+/// One row of the report.
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub id: String,
+    pub quantity: String,
+    pub source: String,
+    pub paper: Option<f64>,
+    pub unit: String,
+    pub measured: Option<f64>,
+    /// A trend's values over the series, in the order of the series values.
+    pub values: Vec<f64>,
+    pub status: Status,
+    /// The tolerance applied, as the report shows it ("±5 %", "±1 N", "increasing").
+    pub tolerance: String,
+    /// Why it differs, what it needs, or why the tolerance.
+    pub note: String,
+}
+
+impl Row {
+    /// (measured − paper) / |paper|.
+    pub fn relative_difference(&self) -> Option<f64> {
+        match (self.measured, self.paper) {
+            (Some(m), Some(p)) if p != 0.0 => Some((m - p) / p.abs()),
+            _ => None,
+        }
+    }
+}
+
+/// Every row of a case: its results judged against `measured` (none: never run at this size),
+/// then its `not_run` rows.
+pub fn judge_case(case: &LoadedCase, measured: Option<&Measured>, reduced: bool) -> Vec<Row> {
+    let mut rows: Vec<Row> = case
+        .case
+        .results
+        .iter()
+        .map(|r| judge(case, r, measured, reduced))
+        .collect();
+    rows.extend(case.case.not_run.iter().map(|r| Row {
+        id: r.id.clone(),
+        quantity: r.quantity.clone(),
+        source: r.source.clone(),
+        paper: r.paper,
+        unit: r.unit.clone(),
+        measured: None,
+        values: Vec::new(),
+        status: Status::NotRun,
+        tolerance: String::new(),
+        note: format!("Needs: {}", r.needs),
+    }));
+    rows
+}
+
+fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced: bool) -> Row {
+    let (rel, abs) = if reduced {
+        (r.reduced_tolerance, r.reduced_abs_tolerance)
+    } else {
+        (r.tolerance, r.abs_tolerance)
+    };
+    let mut row = Row {
+        id: r.id.clone(),
+        quantity: r.quantity.clone(),
+        source: r.source.clone(),
+        paper: r.paper,
+        unit: r.unit.clone(),
+        measured: None,
+        values: Vec::new(),
+        status: Status::NotRun,
+        tolerance: String::new(),
+        note: String::new(),
+    };
+    let Some(m) = measured else {
+        row.note = "Not yet run at this size.".into();
+        return row;
+    };
+    let output = |run: &super::measured::MeasuredRun| {
+        run.values(case)
+            .get(&r.output)
+            .copied()
+            .map(|v| v * r.scale)
+    };
+    if let Some(trend) = r.trend {
+        let mut runs: Vec<_> = m.runs.iter().collect();
+        runs.sort_by(|a, b| a.series.unwrap_or(0.0).total_cmp(&b.series.unwrap_or(0.0)));
+        let values: Vec<Option<f64>> = runs.iter().map(|run| output(run)).collect();
+        row.tolerance = match trend {
+            Trend::Increasing => "increasing".into(),
+            Trend::Decreasing => "decreasing".into(),
+            Trend::Constant => format!("constant ±{}", percent(rel.unwrap_or(0.0))),
+        };
+        if values.len() < 2 || values.iter().any(|v| v.is_none()) {
+            row.note = "The series has fewer than two measured runs.".into();
+            return row;
+        }
+        row.values = values.into_iter().flatten().collect();
+        let holds = match trend {
+            Trend::Increasing => row.values.windows(2).all(|w| w[1] > w[0]),
+            Trend::Decreasing => row.values.windows(2).all(|w| w[1] < w[0]),
+            Trend::Constant => {
+                let mean = row.values.iter().sum::<f64>() / row.values.len() as f64;
+                let tol = rel.unwrap_or(0.0) * mean.abs();
+                row.values.iter().all(|v| (v - mean).abs() <= tol)
+            }
+        };
+        // At the reduced size a trend is asserted where the row says why it holds there.
+        row.status = verdict(holds, reduced && r.why_reduced.trim().is_empty());
+    } else {
+        let run = m
+            .runs
+            .iter()
+            .find(|run| run.series == r.at || r.at.is_none());
+        let Some(run) = run else {
+            row.note = format!(
+                "The series value {} is not run at this size.",
+                r.at.unwrap_or(f64::NAN)
+            );
+            return row;
+        };
+        row.measured = output(run);
+        let (Some(v), Some(p)) = (row.measured, r.paper) else {
+            row.note = format!("The run gave no value ({}).", run.status);
+            return row;
+        };
+        row.tolerance = match (rel, abs) {
+            (Some(t), _) => format!("±{}", percent(t)),
+            (None, Some(a)) => format!("±{} {}", number(a), r.unit),
+            (None, None) => String::new(),
+        };
+        let within = rel
+            .map(|t| (v - p).abs() <= t * p.abs())
+            .or(abs.map(|a| (v - p).abs() <= a));
+        row.status = match within {
+            Some(ok) => verdict(ok, false),
+            None => Status::Unchecked,
+        };
+    }
+    row.note = match row.status {
+        Status::Differs if !reduced => r.explanation.clone(),
+        _ if reduced => r.why_reduced.clone(),
+        _ => r.why.clone(),
+    };
+    row
+}
+
+fn verdict(holds: bool, unchecked: bool) -> Status {
+    match (unchecked, holds) {
+        (true, _) => Status::Unchecked,
+        (false, true) => Status::Pass,
+        (false, false) => Status::Differs,
+    }
+}
+
+/// A fraction as a percentage with the digits it needs ("5 %", "0.5 %").
+pub fn percent(fraction: f64) -> String {
+    format!("{} %", number(100.0 * fraction))
+}
+
+/// A number with four significant digits, plain where that reads well.
+pub fn number(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let magnitude = v.abs().log10().floor();
+    if !(-3.0..6.0).contains(&magnitude) {
+        return format!("{v:.3e}");
+    }
+    let decimals = (3.0 - magnitude).max(0.0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_read_as_a_reader_writes_them() {
+        assert_eq!(number(137.0), "137");
+        assert_eq!(number(8.535), "8.535");
+        assert_eq!(number(538.24), "538.2");
+        assert_eq!(number(0.0421), "0.0421");
+        assert_eq!(number(2.5e-7), "2.500e-7");
+        assert_eq!(percent(0.05), "5 %");
+    }
+}

@@ -1,0 +1,248 @@
+//! `peridyn validate`: the case files of `validation/` are valid and their ids unique; every
+//! case's reduced version reproduces the paper's numbers within the reduced tolerances its
+//! rows justify; the committed report is the one its measurements give; and the verdicts are
+//! right on a case whose measurements are known.
+
+use peridyn::deck::case::LoadedCase;
+use peridyn::validation::measured::{Measured, MeasuredRun};
+use peridyn::validation::verdict::{judge_case, Status};
+use peridyn::validation::{load_all, report_texts, validate, Layout, ValidateOptions};
+use std::path::{Path, PathBuf};
+
+fn repository() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn layout() -> Layout {
+    Layout::new(repository().join("validation"))
+}
+
+fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("peridyn-validation-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn every_case_file_is_valid_and_its_ids_unique() {
+    let entries = load_all(&layout()).unwrap_or_else(|e| panic!("{e}"));
+    let rows: usize = entries
+        .iter()
+        .map(|e| e.case.case.results.len() + e.case.case.not_run.len())
+        .sum();
+    println!("{} cases, {rows} rows", entries.len());
+}
+
+#[test]
+fn the_committed_report_is_the_one_its_measurements_give() {
+    let (report, readme) = report_texts(&layout()).unwrap();
+    let committed = |f: &str| std::fs::read_to_string(repository().join(f)).unwrap();
+    let stale = "is stale: run `peridyn validate --report` and commit it";
+    assert!(
+        report == committed("docs/validation.md"),
+        "docs/validation.md {stale}"
+    );
+    assert!(
+        readme.expect("README.md has the summary markers") == committed("README.md"),
+        "README.md's validation summary {stale}"
+    );
+}
+
+#[test]
+fn reduced_cases_reproduce_the_papers_numbers() {
+    let out = scratch("reduced");
+    let opts = ValidateOptions {
+        out_dir: out.clone(),
+        reduced: true,
+        threads: None,
+        quiet: true,
+    };
+    let done = validate(&[], &layout(), &opts, true).unwrap_or_else(|e| panic!("{e}"));
+    println!("{done}");
+    assert_eq!(
+        done.differing(),
+        0,
+        "rows outside their reduced tolerance:\n{done}"
+    );
+    assert!(
+        done.report.is_none(),
+        "a reduced validation leaves the report alone"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A case on the quickstart deck with a series of two values and rows of every kind.
+fn case_file(dir: &Path) -> PathBuf {
+    let deck = repository().join("examples/quickstart.toml");
+    let text = format!(
+        r#"version = 1
+paper = "002"
+title = "verdicts"
+section = "§1"
+deck = "{}"
+[series]
+key = "material.fracture_energy"
+values = [300.0, 400.0]
+[[outputs]]
+name = "speed"
+file = "crack_speed.csv"
+column = "speed"
+reduce = "mean"
+[[results]]
+id = "near"
+quantity = "a speed 4 % from the paper's"
+source = "Fig. 1"
+paper = 500.0
+unit = "m/s"
+output = "speed"
+at = 300.0
+tolerance = 0.05
+why = "5 %"
+[[results]]
+id = "far"
+quantity = "a speed 20 % from the paper's"
+source = "Fig. 1"
+paper = 500.0
+output = "speed"
+at = 400.0
+abs_tolerance = 50.0
+why = "50 m/s"
+explanation = "it is slower"
+[[results]]
+id = "falls"
+quantity = "slower with a larger G"
+source = "Fig. 1"
+output = "speed"
+trend = "decreasing"
+[[results]]
+id = "rises"
+quantity = "faster with a larger G"
+source = "Fig. 1"
+output = "speed"
+trend = "increasing"
+[[derived]]
+name = "twice"
+sum = ["speed", "speed"]
+[[derived]]
+name = "one"
+ratio = ["twice", "twice"]
+[[results]]
+id = "sum"
+quantity = "a derived output"
+source = "Fig. 1"
+paper = 1040.0
+output = "twice"
+at = 300.0
+abs_tolerance = 0.0
+why = "exact"
+[[results]]
+id = "ratio"
+quantity = "a derived output of a derived output"
+source = "Fig. 1"
+paper = 1.0
+output = "one"
+at = 400.0
+abs_tolerance = 0.0
+why = "exact"
+[[not_run]]
+id = "big"
+quantity = "3D"
+source = "Fig. 2"
+needs = "more memory"
+"#,
+        deck.display().to_string().replace('\\', "/")
+    );
+    let path = dir.join("case.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn verdicts_follow_the_tolerances_and_trends() {
+    let dir = scratch("verdicts");
+    let case = LoadedCase::from_file(&case_file(&dir)).unwrap();
+    let run = |series: f64, speed: f64| MeasuredRun {
+        series: Some(series),
+        status: "ok".into(),
+        wall_minutes: 1.0,
+        outputs: [("speed".to_string(), speed)].into_iter().collect(),
+    };
+    let measured = Measured {
+        runs: vec![run(300.0, 520.0), run(400.0, 400.0)],
+        ..Measured::default()
+    };
+    let rows = judge_case(&case, Some(&measured), false);
+    let status: Vec<(&str, Status)> = rows.iter().map(|r| (r.id.as_str(), r.status)).collect();
+    assert_eq!(
+        status,
+        [
+            ("near", Status::Pass),
+            ("far", Status::Differs),
+            ("falls", Status::Pass),
+            ("rises", Status::Differs),
+            ("sum", Status::Pass),
+            ("ratio", Status::Pass),
+            ("big", Status::NotRun),
+        ]
+    );
+    assert_eq!(rows[1].note, "it is slower");
+    assert!((rows[0].relative_difference().unwrap() - 0.04).abs() < 1e-12);
+    // Never run: every result NOT RUN; at the reduced size no row has a tolerance.
+    let never = judge_case(&case, None, false);
+    assert!(never.iter().all(|r| r.status == Status::NotRun));
+    let reduced = judge_case(&case, Some(&measured), true);
+    assert_eq!(reduced[0].status, Status::Unchecked);
+    assert_eq!(
+        reduced[3].status,
+        Status::Unchecked,
+        "a trend without why_reduced"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_case_files_are_refused_at_their_key() {
+    let dir = scratch("bad");
+    let good = std::fs::read_to_string(case_file(&dir)).unwrap();
+    for (from, to, expect) in [
+        (
+            "at = 300.0",
+            "at = 350.0",
+            "results[0].at: 350 is not one of the series values",
+        ),
+        (
+            "output = \"speed\"\nat = 400.0",
+            "output = \"sped\"\nat = 400.0",
+            "results[1].output: no output `sped`",
+        ),
+        (
+            "why = \"5 %\"\n",
+            "",
+            "results[0].why: say why the tolerance",
+        ),
+        (
+            "needs = \"more memory\"",
+            "needs = \"\"",
+            "not_run[0].needs",
+        ),
+        (
+            "key = \"material.fracture_energy\"",
+            "key = \"material.toughness\"",
+            "series.key",
+        ),
+        (
+            "ratio = [\"twice\", \"twice\"]",
+            "ratio = [\"twice\", \"thrice\"]",
+            "derived[1].name: no output `thrice`",
+        ),
+    ] {
+        assert!(good.contains(from), "{from}");
+        let path = dir.join("bad.toml");
+        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+        let e = LoadedCase::from_file(&path).unwrap_err().to_string();
+        assert!(e.contains(expect), "expected `{expect}` in:\n{e}");
+        assert!(e.contains("bad.toml:"), "{e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
