@@ -31,6 +31,8 @@ pub struct CaseFile {
     /// Numbers set in every run.
     #[serde(default)]
     pub fixed: Vec<FixedSpec>,
+    /// Why the reduced version cannot run in CI's budget (it still runs with `--reduced`).
+    pub not_in_ci: Option<String>,
     /// Numbers set only in the reduced (CI) version, over `fixed`.
     #[serde(default)]
     pub reduced: Vec<FixedSpec>,
@@ -339,6 +341,16 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 _ => {}
             }
         }
+    }
+    if case
+        .not_in_ci
+        .as_deref()
+        .is_some_and(|w| w.trim().is_empty())
+    {
+        issue(
+            "not_in_ci".into(),
+            "say why the reduced version cannot run in CI".into(),
+        );
     }
     let has_runs = deck.is_some();
     if !has_runs && !(case.results.is_empty() && case.outputs.is_empty()) {

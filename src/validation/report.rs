@@ -204,6 +204,9 @@ fn case_section(e: &CaseEntry, rows: &[Row], figure_dir: &str, figures_present: 
         None => "Nothing to run here.".into(),
     };
     let _ = writeln!(md, "Case [`{}`](../{}). {run}\n", e.path, e.path);
+    if let Some(why) = &c.not_in_ci {
+        let _ = writeln!(md, "Its reduced version is not run in CI: {}\n", why.trim());
+    }
     if !c.about.trim().is_empty() {
         md += c.about.trim();
         md += "\n\n";
