@@ -36,7 +36,11 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--loop-steps", type=int, default=200)
     ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--call-overhead-only", action="store_true",
+                    help="only the cost of a call, on the quickstart coarsened to 3200 nodes")
     args = ap.parse_args()
+    if args.call_overhead_only:
+        return call_overhead(args.repeat)
     threads = [] if args.threads is None else ["--threads", str(args.threads)]
     tmp = pathlib.Path(tempfile.mkdtemp())
 
@@ -110,6 +114,37 @@ def main():
           f"{held:.1f} MB holding 1000 displacement views (one array is {sim.nodes * 2 * 8 / 1e6:.2f} MB); "
           f"{computed:.1f} MB holding 100 damage arrays ({sim.nodes * 8 / 1e6:.2f} MB each); "
           f"all views share one buffer: {all(np.shares_memory(kept[0], v) for v in kept)}")
+
+
+def call_overhead(repeat, steps=3000):
+    """A call's own cost, where a step is cheap enough for it to show: the quickstart at
+    Δx = 0.4 mm (3200 nodes), one thread, `step()` × K against `step(K)`, alternating."""
+    deck = peridyn.load(DECK).set("discretization.spacing", 0.4e-3).set("solver.end_time", 1.0)
+    one, loop = [], []
+    for _ in range(repeat):
+        a = peridyn.Simulation(deck, threads=1)
+        t0 = time.perf_counter()
+        a.step(steps)
+        one.append(time.perf_counter() - t0)
+        b = peridyn.Simulation(deck, threads=1)
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            b.step()
+        loop.append(time.perf_counter() - t0)
+        assert np.array_equal(a.displacement, b.displacement)
+    per_step = min(one) / steps
+    call = (min(loop) - min(one)) / steps
+    # The machinery alone: a call that takes no step (release and take back the GIL, lock,
+    # look for Ctrl-C, read the step count).
+    calls, empty = 100000, []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            a.step(0)
+        empty.append(time.perf_counter() - t0)
+    print(f"step(0), the call without a step: {min(empty) / calls * 1e6:.2f} µs (best of {repeat} × {calls})")
+    print(f"{a.nodes} nodes, {steps} steps, 1 thread: one step {per_step * 1e6:.1f} µs in step(K); "
+          f"a call to step() adds {call * 1e6:.2f} µs  [step(K) {one}, step() × K {loop}]")
 
 
 if __name__ == "__main__":
