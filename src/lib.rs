@@ -25,6 +25,7 @@ pub mod observe;
 pub mod per_node;
 pub mod plot;
 pub mod run;
+pub mod session;
 pub mod solver;
 pub mod state;
 pub mod study;

@@ -47,6 +47,11 @@ impl CsvHistory {
         &self.path
     }
 
+    /// Column names.
+    pub fn header(&self) -> &[String] {
+        &self.header
+    }
+
     /// Rows recorded so far.
     pub fn rows(&self) -> &[Vec<f64>] {
         &self.rows
@@ -79,8 +84,11 @@ impl CsvHistory {
         Ok(())
     }
 
-    /// Rewrites the whole file now.
+    /// Rewrites the whole file now; a table with an empty path lives in memory only.
     pub fn flush(&mut self) -> io::Result<()> {
+        if self.path.as_os_str().is_empty() {
+            return Ok(());
+        }
         atomic::write_atomic(&self.path, self.render().as_bytes())?;
         self.last_flush = Instant::now();
         self.flushed_rows = self.rows.len();

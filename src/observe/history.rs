@@ -75,6 +75,16 @@ impl History {
         self
     }
 
+    /// Column names, as in the file.
+    pub fn header(&self) -> &[String] {
+        self.csv.header()
+    }
+
+    /// Rows recorded so far.
+    pub fn rows(&self) -> &[Vec<f64>] {
+        self.csv.rows()
+    }
+
     /// Adds a last column `stage`: the number (from 1) of the stage a row belongs to.
     pub fn with_stages(mut self) -> Self {
         self.csv.add_column("stage".into());
