@@ -16,11 +16,11 @@ pub(crate) mod observers;
 mod prepare;
 mod report;
 pub(crate) mod resolved;
-mod restart;
+pub(crate) mod restart;
 pub(crate) mod stages;
 
 pub use check::{check, check_timed, TimeEstimate};
-pub use prepare::{prepare, DamageAndReports};
+pub use prepare::{prepare, prepare_shared, DamageAndReports};
 pub use report::{ModelReport, RunSummary};
 pub use stages::{drive, drive_adaptive, drive_quasi_static, ViewSource};
 

@@ -42,6 +42,18 @@ pub fn prepare<const D: usize, M: Material<D>>(
     material: M,
     rest: DamageAndReports,
 ) -> Result<(Simulation<D, M>, ModelReport), RunError> {
+    prepare_shared(ld, model, material, rest, None)
+}
+
+/// `prepare` for one rank's share of a distributed run (`model` is the share's part of the
+/// body): the report's counts are then this part's, for the caller to complete.
+pub fn prepare_shared<const D: usize, M: Material<D>>(
+    ld: &LoadedDeck,
+    model: Model<D>,
+    material: M,
+    rest: DamageAndReports,
+    share: Option<crate::solver::ranks::Share>,
+) -> Result<(Simulation<D, M>, ModelReport), RunError> {
     let settings = solver_settings(&ld.deck);
     let started = Instant::now();
     let DamageAndReports {
@@ -64,15 +76,15 @@ pub fn prepare<const D: usize, M: Material<D>>(
     } = model;
     let history_bytes = damage.bytes_per_bond(crate::solver::bond_force::<D, M>());
     let grid = crate::grid::grid_report(ld, &body, &bonds);
-    let mut sim = Simulation::new(
+    let mut sim = Simulation::new_shared(
         body,
         bonds,
         material,
         damage,
         rule,
         loading,
-        settings.dt,
-        settings.safety_factor,
+        (settings.dt, settings.safety_factor),
+        share,
     )
     .map_err(|e| ld.locate(vec![DeckIssue::new("material", e.to_string())]))?;
     for (k, p) in &porosity {

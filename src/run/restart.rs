@@ -29,7 +29,7 @@ pub(super) fn restore<const D: usize, M: Material<D>>(
 
 /// The checkpoints the deck asks for: at snapshots (`checkpoint`), every
 /// `checkpoint_interval` steps, or none.
-pub(super) fn checkpoints(
+pub(crate) fn checkpoints(
     deck: &Deck,
     out: &Path,
     origin: Origin,

@@ -11,6 +11,7 @@ use crate::math::Vector;
 use crate::observe::{Observer, StageStart, StepView};
 use crate::solver::Fields;
 use crate::solver::{AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation};
+use crate::state::State;
 use std::time::Instant;
 
 /// Drives the whole run: the deck's stages, or its one stage.
@@ -156,6 +157,10 @@ pub trait ViewSource<const D: usize> {
         last: bool,
         stage_end: bool,
     ) -> Result<(), RunError>;
+
+    /// The whole body's state for a checkpoint, on the process that writes it (`None` on
+    /// the others); every rank calls it when a checkpoint falls due.
+    fn whole_state(&mut self, state: &State<D>) -> Option<&State<D>>;
 }
 
 impl<'a, const D: usize> Watch<'a, D> {
@@ -230,7 +235,14 @@ impl<'a, const D: usize> Watch<'a, D> {
                 impactors: sim.impactors.states(),
                 ..driver(sim)
             };
-            c.write(&sim.state, &driver)?;
+            match self.source.as_deref_mut() {
+                None => c.write(&sim.state, &driver)?,
+                Some(source) => {
+                    if let Some(whole) = source.whole_state(&sim.state) {
+                        c.write(whole, &driver)?;
+                    }
+                }
+            }
             sim.counters.observe += started.elapsed();
         }
         match self.stop_after {
