@@ -128,6 +128,19 @@ fn run_model<const D: usize, M: Material<D>>(
         grid,
     } = built;
     let global_nodes = ranks.sum_u64(owned as u64) as usize;
+    if !opts.quiet {
+        eprintln!(
+            "rank {} of {}: nodes {}..{} ({} owned, {} ghosts from {} peers), halo {} B sent per step",
+            ranks.rank(),
+            ranks.size(),
+            first,
+            first + owned,
+            owned,
+            halo.ghosts(),
+            halo.peers.len(),
+            halo.bytes_sent(3 * D)
+        );
+    }
     let share = Share {
         ranks: ranks.clone(),
         first,
