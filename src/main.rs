@@ -50,6 +50,10 @@ enum Command {
         deck: PathBuf,
         #[arg(long)]
         threads: Option<usize>,
+        /// Also predict a distributed run on N ranks: each rank's nodes, ghosts, bonds, halo
+        /// bytes per step and memory (docs/distributed.md).
+        #[arg(long, value_name = "N")]
+        ranks: Option<usize>,
     },
     /// Write a deck's grid without running it: nodes (VTU: volume, cell size, horizon, block)
     /// and, in 2D, a PNG of the nodes with the shape's outline.
@@ -158,7 +162,12 @@ fn run_distributed(
             }
             ExitCode::SUCCESS
         }
-        Err(e @ (RunError::Deck(_) | RunError::Distributed(_) | RunError::Step(_))) => {
+        Err(
+            e @ (RunError::Deck(_)
+            | RunError::Distributed(_)
+            | RunError::Step(_)
+            | RunError::Stopped(_)),
+        ) => {
             if root {
                 eprintln!("error: {e}");
             }
@@ -258,7 +267,11 @@ fn main() -> ExitCode {
             }
             Ok(())
         })(),
-        Command::Check { deck, threads } => (|| {
+        Command::Check {
+            deck,
+            threads,
+            ranks,
+        } => (|| {
             if std::fs::read_to_string(&deck).is_ok_and(|src| LoadedStudy::is_study(&src)) {
                 return check_study(&deck, threads);
             }
@@ -267,6 +280,16 @@ fn main() -> ExitCode {
             println!("{}: deck is valid\n{report}", deck.display());
             if let Some(time) = time {
                 println!("{time}");
+            }
+            if let Some(n) = ranks.filter(|&n| n > 1) {
+                let plans = match ld.deck.dimension {
+                    2 => peridyn::distributed::plan::plan::<2>(&ld, n),
+                    _ => peridyn::distributed::plan::plan::<3>(&ld, n),
+                }
+                .map_err(|e| e.to_string())?;
+                for (r, p) in plans.iter().enumerate() {
+                    println!("rank {r:<11} {p}");
+                }
             }
             Ok(())
         })(),

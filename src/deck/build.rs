@@ -170,7 +170,8 @@ pub struct Families {
     pub rule: PartialVolume,
     /// Bytes per directed bond the model will need.
     pub bytes_per_bond: usize,
-    per_node: usize,
+    /// Bytes per node (the largest model's node state).
+    pub bytes_per_node: usize,
 }
 
 impl Families {
@@ -179,7 +180,7 @@ impl Families {
         memory::Estimate::new(
             body.len() as f64,
             estimate_bonds(body, self.rule),
-            self.per_node,
+            self.bytes_per_node,
             self.bytes_per_bond,
         )
         .fits(memory::available_bytes())
@@ -428,7 +429,7 @@ pub fn build_model_with<const D: usize>(
         bytes_per_bond: memory::bytes_per_bond(
             Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
         ),
-        per_node,
+        bytes_per_node: per_node,
     };
     let Part {
         body,

@@ -12,6 +12,7 @@ pub mod gather;
 #[cfg(feature = "mpi")]
 pub mod mpi_ranks;
 pub mod partition;
+pub mod plan;
 pub mod refuse;
 pub mod run;
 pub mod share;
