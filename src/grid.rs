@@ -75,13 +75,6 @@ pub fn deck_shape(ld: &LoadedDeck) -> Option<&Shape> {
 /// Statistics of a body and its bonds (the nearest neighbour of a node is among its bonds),
 /// the deck's boundary layers counted apart.
 pub fn grid_report<const D: usize>(ld: &LoadedDeck, body: &Body<D>, bonds: &Bonds) -> GridReport {
-    let thickness = ld.deck.thickness.unwrap_or(1.0);
-    let mut in_layer = vec![false; body.len()];
-    for layer in &ld.deck.boundary_layers {
-        for i in body.node_set(&layer.name).expect("a layer is a node set") {
-            in_layer[i as usize] = true;
-        }
-    }
     let nearest: Vec<f64> = (0..body.len())
         .into_par_iter()
         .map(|i| {
@@ -91,6 +84,31 @@ pub fn grid_report<const D: usize>(ld: &LoadedDeck, body: &Body<D>, bonds: &Bond
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
+    let spacing = (
+        nearest.iter().cloned().fold(f64::INFINITY, f64::min),
+        nearest
+            .iter()
+            .cloned()
+            .filter(|d| d.is_finite())
+            .fold(0.0, f64::max),
+    );
+    grid_report_spaced(ld, body, spacing)
+}
+
+/// `grid_report` given the smallest and largest nearest-neighbour distance (a distributed
+/// run's ranks each know their own nodes').
+pub fn grid_report_spaced<const D: usize>(
+    ld: &LoadedDeck,
+    body: &Body<D>,
+    (min_spacing, max_spacing): (f64, f64),
+) -> GridReport {
+    let thickness = ld.deck.thickness.unwrap_or(1.0);
+    let mut in_layer = vec![false; body.len()];
+    for layer in &ld.deck.boundary_layers {
+        for i in body.node_set(&layer.name).expect("a layer is a node set") {
+            in_layer[i as usize] = true;
+        }
+    }
     let per_area = if D == 2 { 1.0 / thickness } else { 1.0 };
     let measure_of = |layers: bool| -> f64 {
         (body.volumes.iter().zip(&in_layer))
@@ -100,12 +118,8 @@ pub fn grid_report<const D: usize>(ld: &LoadedDeck, body: &Body<D>, bonds: &Bond
     };
     GridReport {
         nodes: body.len(),
-        min_spacing: nearest.iter().cloned().fold(f64::INFINITY, f64::min),
-        max_spacing: nearest
-            .iter()
-            .cloned()
-            .filter(|d| d.is_finite())
-            .fold(0.0, f64::max),
+        min_spacing,
+        max_spacing,
         measure: measure_of(false) * per_area,
         layers: (!ld.deck.boundary_layers.is_empty()).then(|| {
             let nodes = in_layer.iter().filter(|&&l| l).count();

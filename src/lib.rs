@@ -15,6 +15,7 @@ pub mod damage;
 pub mod deck;
 pub mod dimensionality;
 pub mod discretize;
+pub mod distributed;
 pub mod geometry;
 pub mod grid;
 pub mod loading;

@@ -51,6 +51,10 @@ enum Command {
         deck: PathBuf,
         #[arg(long)]
         threads: Option<usize>,
+        /// Also predict a distributed run on N ranks: each rank's nodes, ghosts, bonds, halo
+        /// bytes per step and memory (docs/distributed.md).
+        #[arg(long, value_name = "N")]
+        ranks: Option<usize>,
     },
     /// Write a deck's grid without running it: nodes (VTU: volume, cell size, horizon, block)
     /// and, in 2D, a PNG of the nodes with the shape's outline.
@@ -146,8 +150,107 @@ fn check_study(study: &std::path::Path, threads: Option<usize>) -> Result<(), St
     Ok(())
 }
 
+/// The ranks of a run started by `mpirun -np N` (N > 1) with the `mpi` feature; `None`
+/// otherwise (one process, as without the feature).
+#[cfg(feature = "mpi")]
+fn ranks() -> Option<(
+    mpi::environment::Universe,
+    peridyn::distributed::mpi_ranks::MpiRanks,
+)> {
+    let (universe, _) = mpi::initialize_with_threading(mpi::Threading::Serialized)?;
+    let ranks = peridyn::distributed::mpi_ranks::MpiRanks::world();
+    use peridyn::solver::ranks::Ranks;
+    if ranks.size() > 1 {
+        Some((universe, ranks))
+    } else {
+        None
+    }
+}
+
+/// `peridyn run` over ranks: rank 0 prints; an error every rank meets (the deck, a feature
+/// not yet distributed, an unstable step) ends every rank, any other (a file rank 0 cannot
+/// write) aborts the others, which may be waiting for it.
+#[cfg(feature = "mpi")]
+fn run_distributed(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+    ranks: peridyn::distributed::mpi_ranks::MpiRanks,
+) -> ExitCode {
+    use peridyn::run::RunError;
+    use peridyn::solver::ranks::Ranks;
+    let root = ranks.rank() == 0;
+    match peridyn::distributed::run_with(ld, opts, control, std::sync::Arc::new(ranks)) {
+        Ok(summary) => {
+            if root {
+                println!("{summary}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(
+            e @ (RunError::Deck(_)
+            | RunError::Distributed(_)
+            | RunError::Step(_)
+            | RunError::Stopped(_)),
+        ) => {
+            if root {
+                eprintln!("error: {e}");
+            }
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error (rank {}): {e}", ranks.rank());
+            ranks.abort(1)
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    #[cfg(feature = "mpi")]
+    if let Some((universe, ranks)) = ranks() {
+        {
+            use peridyn::solver::ranks::Ranks;
+            let Command::Run {
+                deck,
+                output,
+                threads,
+                quiet,
+                restart,
+                stop_after_step,
+            } = cli.command
+            else {
+                if ranks.rank() == 0 {
+                    eprintln!("error: only `peridyn run` is distributed: start other commands without mpirun (or with -np 1)");
+                }
+                return ExitCode::FAILURE;
+            };
+            let ld = match LoadedDeck::from_file(&deck) {
+                Ok(ld) => ld,
+                Err(e) => {
+                    if ranks.rank() == 0 {
+                        eprintln!("error: {e}");
+                    }
+                    return ExitCode::FAILURE;
+                }
+            };
+            let out_dir = output
+                .or(restart.clone().flatten())
+                .unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
+            let opts = RunOptions {
+                out_dir,
+                threads,
+                quiet,
+            };
+            let control = RunControl {
+                restart: restart.is_some(),
+                stop_after_step,
+            };
+            let code = run_distributed(&ld, &opts, &control, ranks);
+            drop(universe);
+            return code;
+        }
+    }
     let result: Result<(), String> = match cli.command {
         Command::Run {
             deck,
@@ -189,7 +292,11 @@ fn main() -> ExitCode {
             }
             Ok(())
         })(),
-        Command::Check { deck, threads } => (|| {
+        Command::Check {
+            deck,
+            threads,
+            ranks,
+        } => (|| {
             if std::fs::read_to_string(&deck).is_ok_and(|src| LoadedStudy::is_study(&src)) {
                 return check_study(&deck, threads);
             }
@@ -198,6 +305,16 @@ fn main() -> ExitCode {
             println!("{}: deck is valid\n{report}", deck.display());
             if let Some(time) = time {
                 println!("{time}");
+            }
+            if let Some(n) = ranks.filter(|&n| n > 1) {
+                let plans = match ld.deck.dimension {
+                    2 => peridyn::distributed::plan::plan::<2>(&ld, n),
+                    _ => peridyn::distributed::plan::plan::<3>(&ld, n),
+                }
+                .map_err(|e| e.to_string())?;
+                for (r, p) in plans.iter().enumerate() {
+                    println!("rank {r:<11} {p}");
+                }
             }
             Ok(())
         })(),

@@ -16,6 +16,9 @@ use crate::math::Vector;
 use crate::observe::history::History;
 use crate::observe::snapshots::Snapshots;
 use crate::observe::{Observer, StepView};
+use crate::run::observers::opening_nodes;
+use crate::run::resolved::resolved_deck;
+use crate::run::stages::energy_given;
 use crate::run::{prepare, ModelReport, RunError};
 use crate::solver::{Fields, Simulation};
 use std::path::{Path, PathBuf};
@@ -70,8 +73,13 @@ trait Driver: Send {
     fn energy_density(&self) -> Vec<f64>;
     fn energies(&self) -> Energies;
     fn history(&self) -> (&[String], &[Vec<f64>]);
-    fn prescribe(&mut self, set: &str, kind: Kinematic, component: usize, value: f64)
-        -> Result<(), String>;
+    fn prescribe(
+        &mut self,
+        set: &str,
+        kind: Kinematic,
+        component: usize,
+        value: f64,
+    ) -> Result<(), String>;
     fn release(&mut self, set: &str, component: Option<usize>) -> Result<usize, String>;
     fn write_nodes(
         &mut self,
@@ -489,7 +497,8 @@ where
     ) -> Result<(), RunError> {
         let n = self.sim.body.len();
         let count = nodes.map_or(n, |s| s.len());
-        let invalid = |m: String| RunError::Io(std::io::Error::new(std::io::ErrorKind::InvalidInput, m));
+        let invalid =
+            |m: String| RunError::Io(std::io::Error::new(std::io::ErrorKind::InvalidInput, m));
         if values.len() != count * D {
             return Err(invalid(format!(
                 "{} values given for {count} nodes × {D} components",
@@ -497,7 +506,9 @@ where
             )));
         }
         if let Some(&bad) = nodes.and_then(|s| s.iter().find(|&&i| i as usize >= n)) {
-            return Err(invalid(format!("node {bad} does not exist (the model has {n} nodes)")));
+            return Err(invalid(format!(
+                "node {bad} does not exist (the model has {n} nodes)"
+            )));
         }
         if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
             return Err(invalid(format!("the values hold {bad}")));
@@ -506,7 +517,9 @@ where
             let i = nodes.map_or(k, |s| s[k] as usize);
             let value = Vector::<D>::from_column_slice(&values[k * D..(k + 1) * D]);
             match which {
-                NodeVectors::Displacement => self.sim.state.set_displacement(&self.sim.body, i, value),
+                NodeVectors::Displacement => {
+                    self.sim.state.set_displacement(&self.sim.body, i, value)
+                }
                 NodeVectors::Velocity => self.sim.state.v[i] = value,
                 _ => {
                     return Err(invalid(
@@ -589,63 +602,4 @@ fn flat<const D: usize>(v: &[Vector<D>]) -> &[f64] {
     // SAFETY: a `Vector<D>` is nalgebra's `#[repr(C)]` array storage of D f64, so a slice of
     // n of them is n·D contiguous, aligned f64.
     unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len() * D) }
-}
-
-/// As `run::energy_given`: the energy the loop starts with and the external work until then.
-fn energy_given<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> (f64, f64) {
-    (
-        sim.kinetic_energy()
-            + sim.strain_energy()
-            + Fields::contact_energy(sim)
-            + Fields::impactor_kinetic_energy(sim),
-        sim.state.external_work,
-    )
-}
-
-/// As `run::opening_nodes`: each opening's name and the nodes nearest its two points.
-fn opening_nodes<const D: usize>(
-    body: &crate::body::Body<D>,
-    openings: &[crate::deck::schema::OpeningDeck],
-) -> Vec<(String, usize, usize)> {
-    let nearest = |p: &[f64]| {
-        let p = crate::math::vector_from_slice::<D>(p);
-        (0..body.len())
-            .min_by(|&a, &b| {
-                (body.positions[a] - p)
-                    .norm()
-                    .total_cmp(&(body.positions[b] - p).norm())
-                    .then(a.cmp(&b))
-            })
-            .unwrap_or(0)
-    };
-    openings
-        .iter()
-        .map(|o| {
-            (
-                o.name.clone(),
-                nearest(&o.between[0]),
-                nearest(&o.between[1]),
-            )
-        })
-        .collect()
-}
-
-/// As `run::resolved_deck`, whose hash a checkpoint carries: a session's checkpoints and
-/// `peridyn run`'s continue each other (the Python tests restore one from the other).
-fn resolved_deck(ld: &LoadedDeck) -> Result<String, RunError> {
-    let mut resolved = ld.deck.clone();
-    resolved.output.history_interval = Some(ld.deck.history_interval());
-    for (k, stage) in resolved.stages.iter_mut().enumerate() {
-        stage.history_interval = Some(ld.deck.stage_history_interval(k + 1));
-    }
-    if let crate::deck::schema::Discretization::PointCloud { file, .. }
-    | crate::deck::schema::Discretization::Gmsh { file, .. } = &mut resolved.discretization
-    {
-        let path = ld.base_dir().join(&*file);
-        *file = std::fs::canonicalize(&path)
-            .unwrap_or(path)
-            .display()
-            .to_string();
-    }
-    Ok(toml::to_string(&resolved).map_err(|e| std::io::Error::other(e.to_string()))?)
 }

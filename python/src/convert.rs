@@ -37,7 +37,8 @@ pub fn toml_to_py<'py>(py: Python<'py>, v: &toml::Value) -> PyResult<Bound<'py, 
 /// A dict written as deck text; a value TOML cannot hold raises `TypeError` naming its key.
 pub fn toml_from_py(data: &Bound<'_, PyDict>) -> PyResult<String> {
     let value = value_from_py(data.as_any(), "")?;
-    toml::to_string(&value).map_err(|e| PyTypeError::new_err(format!("the dict cannot be written as a deck: {e}")))
+    toml::to_string(&value)
+        .map_err(|e| PyTypeError::new_err(format!("the dict cannot be written as a deck: {e}")))
 }
 
 fn value_from_py(x: &Bound<'_, PyAny>, at: &str) -> PyResult<toml::Value> {

@@ -6,7 +6,7 @@ mod convert;
 mod errors;
 mod simulation;
 
-use convert::{report_dict, study_table, toml_to_py, toml_from_py};
+use convert::{report_dict, study_table, toml_from_py, toml_to_py};
 use errors::{guard, to_py, Failure};
 use peridyn::deck::edit::{number_at, set_number};
 use peridyn::deck::study::LoadedStudy;
@@ -101,8 +101,8 @@ impl Deck {
 
     /// The deck as a dict (a copy: changing it does not change the deck).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let value: toml::Value = toml::from_str(&self.ld.src)
-            .map_err(|e| to_py(Failure::Deck(e.to_string())))?;
+        let value: toml::Value =
+            toml::from_str(&self.ld.src).map_err(|e| to_py(Failure::Deck(e.to_string())))?;
         toml_to_py(py, &value)
     }
 
@@ -139,9 +139,8 @@ impl Deck {
     fn edited(&self, values: &[(String, f64)]) -> PyResult<Deck> {
         let mut src = self.ld.src.clone();
         for (key, value) in values {
-            src = set_number(&src, &KeyPath::parse(key), *value).map_err(|m| {
-                to_py(Failure::Deck(format!("{}: {m}", self.ld.file.display())))
-            })?;
+            src = set_number(&src, &KeyPath::parse(key), *value)
+                .map_err(|m| to_py(Failure::Deck(format!("{}: {m}", self.ld.file.display()))))?;
         }
         let file = self.ld.file.clone();
         let ld = guard(|| LoadedDeck::from_str(&src, &file).map_err(Failure::from))?;
@@ -186,7 +185,11 @@ fn load(source: &Bound<'_, PyAny>) -> PyResult<Deck> {
 /// (nodes, bonds, δ/Δx, constants, dt, memory) as a dict.
 #[pyfunction]
 #[pyo3(signature = (deck, threads = None))]
-fn check_deck(py: Python<'_>, deck: &Bound<'_, PyAny>, threads: Option<usize>) -> PyResult<Py<PyDict>> {
+fn check_deck(
+    py: Python<'_>,
+    deck: &Bound<'_, PyAny>,
+    threads: Option<usize>,
+) -> PyResult<Py<PyDict>> {
     deck_of(deck)?.check(py, threads)
 }
 
@@ -215,8 +218,7 @@ fn run<'py>(
         stop_after_step: None,
     };
     let ld = &deck.ld;
-    let summary =
-        py.detach(|| guard(|| run_with(ld, &opts, &control).map_err(Failure::from)))?;
+    let summary = py.detach(|| guard(|| run_with(ld, &opts, &control).map_err(Failure::from)))?;
     let d = PyDict::new(py);
     d.set_item("report", report_dict(py, &summary.report)?)?;
     d.set_item("wall_seconds", summary.wall_seconds)?;

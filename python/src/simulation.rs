@@ -148,8 +148,9 @@ fn component(c: &Bound<'_, PyAny>, dimension: usize) -> PyResult<usize> {
             }
         }
     } else {
-        c.extract::<usize>()
-            .map_err(|_| PyValueError::new_err("component: expected \"x\", \"y\", \"z\" or 0, 1, 2"))?
+        c.extract::<usize>().map_err(|_| {
+            PyValueError::new_err("component: expected \"x\", \"y\", \"z\" or 0, 1, 2")
+        })?
     };
     if k >= dimension {
         return Err(PyValueError::new_err(format!(
@@ -237,7 +238,9 @@ impl Simulation {
     fn run(&self, py: Python<'_>, until: Option<f64>) -> PyResult<u64> {
         let target = match until {
             Some(t) if !t.is_finite() => {
-                return Err(PyValueError::new_err(format!("until = {t}: expected a time in s")))
+                return Err(PyValueError::new_err(format!(
+                    "until = {t}: expected a time in s"
+                )))
             }
             Some(t) => Target::Time(t),
             None => Target::Step(self.with(|s| Ok(s.steps()))?),
@@ -281,7 +284,10 @@ impl Simulation {
         };
         // SAFETY: as `vector_view`: the reference data never changes nor moves.
         let array = unsafe {
-            PyArray1::borrow_from_array(&ArrayView1::from_shape_ptr(len, ptr), slf.clone().into_any())
+            PyArray1::borrow_from_array(
+                &ArrayView1::from_shape_ptr(len, ptr),
+                slf.clone().into_any(),
+            )
         };
         read_only(array)
     }
@@ -297,7 +303,10 @@ impl Simulation {
         };
         // SAFETY: as `vector_view`.
         let array = unsafe {
-            PyArray1::borrow_from_array(&ArrayView1::from_shape_ptr(len, ptr), slf.clone().into_any())
+            PyArray1::borrow_from_array(
+                &ArrayView1::from_shape_ptr(len, ptr),
+                slf.clone().into_any(),
+            )
         };
         read_only(array)
     }
@@ -370,7 +379,13 @@ impl Simulation {
     /// "z" or 0–2) of a node set from the next step on, replacing the deck's condition
     /// there, if any: a load driven from Python between steps.
     #[pyo3(signature = (set, kind, component, value))]
-    fn prescribe(&self, set: &str, kind: &str, component: &Bound<'_, PyAny>, value: f64) -> PyResult<()> {
+    fn prescribe(
+        &self,
+        set: &str,
+        kind: &str,
+        component: &Bound<'_, PyAny>,
+        value: f64,
+    ) -> PyResult<()> {
         let kind = match kind {
             "displacement" => Kinematic::Displacement,
             "velocity" => Kinematic::Velocity,
@@ -392,7 +407,9 @@ impl Simulation {
     /// component), the deck's included; returns how many were removed.
     #[pyo3(signature = (set, component = None))]
     fn release(&self, set: &str, component: Option<&Bound<'_, PyAny>>) -> PyResult<usize> {
-        let k = component.map(|c| self::component(c, self.dimension)).transpose()?;
+        let k = component
+            .map(|c| self::component(c, self.dimension))
+            .transpose()?;
         self.with(|s| s.release(set, k).map_err(Failure::Value))
             .map_err(|f| match f {
                 Failure::Value(m) if m.starts_with("no node set") => PyKeyError::new_err(m),
@@ -404,14 +421,24 @@ impl Simulation {
     /// every node), `values` of shape (len(nodes), dimension); the forces are evaluated
     /// again. Unconstrained nodes then move on from there.
     #[pyo3(signature = (values, nodes = None))]
-    fn set_displacement(&self, py: Python<'_>, values: &Bound<'_, PyAny>, nodes: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    fn set_displacement(
+        &self,
+        py: Python<'_>,
+        values: &Bound<'_, PyAny>,
+        nodes: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
         self.write(py, NodeVectors::Displacement, values, nodes)
     }
 
     /// Writes velocities (m/s) of the nodes `nodes` (a set name, indices, or None for every
     /// node), `values` of shape (len(nodes), dimension).
     #[pyo3(signature = (values, nodes = None))]
-    fn set_velocity(&self, py: Python<'_>, values: &Bound<'_, PyAny>, nodes: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    fn set_velocity(
+        &self,
+        py: Python<'_>,
+        values: &Bound<'_, PyAny>,
+        nodes: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
         self.write(py, NodeVectors::Velocity, values, nodes)
     }
 
@@ -441,7 +468,10 @@ impl Simulation {
                 "<peridyn.Simulation {}D, {} nodes, step {step} of {steps}, t = {time:.4e} s>",
                 self.dimension, self.nodes
             ),
-            Err(_) => format!("<peridyn.Simulation {}D, {} nodes>", self.dimension, self.nodes),
+            Err(_) => format!(
+                "<peridyn.Simulation {}D, {} nodes>",
+                self.dimension, self.nodes
+            ),
         }
     }
 }
@@ -459,14 +489,17 @@ impl Simulation {
             Some(n) if n.is_instance_of::<PyString>() => {
                 let name: String = n.extract()?;
                 let sets = self.with(|s| Ok(s.node_sets()))?;
-                let set = sets.into_iter().find(|(k, _)| *k == name).ok_or_else(|| {
-                    PyKeyError::new_err(format!("no node set `{name}`"))
-                })?;
+                let set = sets
+                    .into_iter()
+                    .find(|(k, _)| *k == name)
+                    .ok_or_else(|| PyKeyError::new_err(format!("no node set `{name}`")))?;
                 Some(set.1)
             }
             Some(n) => {
                 let numpy = py.import("numpy")?;
-                let a = numpy.call_method1("asarray", (n,))?.call_method1("ravel", ())?;
+                let a = numpy
+                    .call_method1("asarray", (n,))?
+                    .call_method1("ravel", ())?;
                 let list: Vec<i64> = a.call_method0("tolist")?.extract().map_err(|_| {
                     PyValueError::new_err("nodes: expected a node set's name or integer indices")
                 })?;
@@ -499,7 +532,10 @@ impl Simulation {
                 self.dimension, self.dimension
             )));
         }
-        let flat: Vec<f64> = array.call_method1("ravel", ())?.call_method0("tolist")?.extract()?;
+        let flat: Vec<f64> = array
+            .call_method1("ravel", ())?
+            .call_method0("tolist")?
+            .extract()?;
         py.detach(|| {
             self.with(|s| {
                 s.write_nodes(which, nodes.as_deref(), &flat)

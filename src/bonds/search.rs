@@ -42,6 +42,60 @@ pub fn build_bonds<const D: usize>(
             ..Default::default()
         };
     }
+    let (one_radius, chunks) = search_families(body, rule, precracks, 0..n);
+    let chunks = if one_radius {
+        chunks
+    } else {
+        with_reverse_pairs(n, chunks)
+    };
+    to_csr(chunks)
+}
+
+/// The searched chunks' families as one CSR.
+fn to_csr(chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)>) -> Bonds {
+    let total: usize = chunks.iter().map(|c| c.1.len()).sum();
+    let rows: usize = chunks.iter().map(|c| c.0.len()).sum();
+    let mut bonds = Bonds {
+        offsets: Vec::with_capacity(rows + 1),
+        neighbors: Vec::with_capacity(total),
+        ref_lengths: Vec::with_capacity(total),
+    };
+    bonds.offsets.push(0);
+    for (counts, nbrs, lens) in chunks {
+        for c in counts {
+            let last = *bonds.offsets.last().unwrap();
+            bonds.offsets.push(last + c);
+        }
+        bonds.neighbors.extend_from_slice(&nbrs);
+        bonds.ref_lengths.extend_from_slice(&lens);
+    }
+    bonds
+}
+
+/// The families of the nodes `nodes` only (neighbours in global indices), for a process
+/// that owns that range of a body distributed over several: each row is bit for bit the one
+/// `build_bonds` builds. `None` when the nodes' horizons differ (a pair only one end's
+/// horizon joins is found from the other end, which may be another process's).
+pub fn build_bonds_of<const D: usize>(
+    body: &Body<D>,
+    rule: PartialVolume,
+    precracks: &[Precrack],
+    nodes: std::ops::Range<usize>,
+) -> Option<Bonds> {
+    let (one_radius, chunks) = search_families(body, rule, precracks, nodes);
+    one_radius.then(|| to_csr(chunks))
+}
+
+/// The searched families of `nodes`, per chunk of `CHUNK` nodes: (counts, neighbours,
+/// lengths); and whether every node searched as far (then every pair is found from both
+/// ends).
+#[allow(clippy::type_complexity)]
+fn search_families<const D: usize>(
+    body: &Body<D>,
+    rule: PartialVolume,
+    precracks: &[Precrack],
+    nodes: std::ops::Range<usize>,
+) -> (bool, Vec<(Vec<usize>, Vec<u32>, Vec<f64>)>) {
     // Node i looks as far as any j can be from it in i's own horizon, δ_i + reach(r_max). A
     // pair that only j's horizon joins (j coarse, i fine) is found from j, and added to i's
     // family below; with one radius for every node each side finds it by itself.
@@ -54,7 +108,7 @@ pub fn build_bonds<const D: usize>(
     // a coarse one at most 9^D cells.
     let grid = CellGrid::new(body, min_radius.max(0.25 * max_radius));
 
-    let chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..n)
+    let chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = nodes
         .collect::<Vec<_>>()
         .par_chunks(CHUNK)
         .map(|nodes| {
@@ -94,28 +148,7 @@ pub fn build_bonds<const D: usize>(
             (counts, nbrs, lens)
         })
         .collect();
-
-    let chunks = if one_radius {
-        chunks
-    } else {
-        with_reverse_pairs(n, chunks)
-    };
-    let total: usize = chunks.iter().map(|c| c.1.len()).sum();
-    let mut bonds = Bonds {
-        offsets: Vec::with_capacity(n + 1),
-        neighbors: Vec::with_capacity(total),
-        ref_lengths: Vec::with_capacity(total),
-    };
-    bonds.offsets.push(0);
-    for (counts, nbrs, lens) in chunks {
-        for c in counts {
-            let last = *bonds.offsets.last().unwrap();
-            bonds.offsets.push(last + c);
-        }
-        bonds.neighbors.extend_from_slice(&nbrs);
-        bonds.ref_lengths.extend_from_slice(&lens);
-    }
-    bonds
+    (one_radius, chunks)
 }
 
 /// Adds to each family the nodes that found it but that it did not find (the pairs only the

@@ -145,6 +145,66 @@ const LARGEST_NODE_STATE: usize = std::mem::size_of::<
 /// Builds the body, bonds and loading of a validated deck, refusing (before spending it) more
 /// memory than the machine has.
 pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckError> {
+    build_model_with(ld, |body, families| {
+        families.fits(ld, &body)?;
+        let bonds = build_bonds(&body, families.rule, &ld.deck.precracks);
+        Ok(Part {
+            body,
+            bonds,
+            globals: None,
+        })
+    })
+}
+
+/// The body a model is built on and its families, as `build_model_with`'s `part` makes them.
+pub struct Part<const D: usize> {
+    pub body: Body<D>,
+    pub bonds: Bonds,
+    /// The global index of each node of `body` when it is a part of the deck's body (a
+    /// process's share of a distributed run); `None`: the whole body.
+    pub globals: Option<Vec<u32>>,
+}
+
+/// What `build_model_with`'s `part` knows of the bonds to build.
+pub struct Families {
+    pub rule: PartialVolume,
+    /// Bytes per directed bond the model will need.
+    pub bytes_per_bond: usize,
+    /// Bytes per node (the largest model's node state).
+    pub bytes_per_node: usize,
+}
+
+impl Families {
+    /// Refuses a body whose bonds would not fit in the memory the machine has.
+    pub fn fits<const D: usize>(&self, ld: &LoadedDeck, body: &Body<D>) -> Result<(), DeckError> {
+        memory::Estimate::new(
+            body.len() as f64,
+            estimate_bonds(body, self.rule),
+            self.bytes_per_node,
+            self.bytes_per_bond,
+        )
+        .fits(memory::available_bytes())
+        .map_err(|e| {
+            let at = match ld.deck.discretization {
+                Discretization::Lattice {
+                    horizon_ratio: Some(_),
+                    ..
+                } => "discretization.horizon_ratio",
+                _ => "discretization.horizon",
+            };
+            ld.locate(vec![DeckIssue::new(at, e)])
+        })
+    }
+}
+
+/// `build_model` with the families built by `part` from the whole body (its node sets and
+/// no-fail flags in place): all of them, or (a distributed run) one process's share, on the
+/// part of the body it returns. The loading, stages and initial velocities are built on that
+/// part.
+pub fn build_model_with<const D: usize>(
+    ld: &LoadedDeck,
+    part: impl FnOnce(Body<D>, &Families) -> Result<Part<D>, DeckError>,
+) -> Result<Model<D>, DeckError> {
     let started = std::time::Instant::now();
     let deck = &ld.deck;
     let dimensionality = dimensionality(deck).expect("validated deck");
@@ -364,27 +424,22 @@ pub fn build_model<const D: usize>(ld: &LoadedDeck) -> Result<Model<D>, DeckErro
         };
         damage_history_words(&m.damage(), force)
     };
-    let per_bond = memory::bytes_per_bond(
-        Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
-    );
-    memory::Estimate::new(
-        body.len() as f64,
-        estimate_bonds(&body, rule),
-        per_node,
-        per_bond,
-    )
-    .fits(available)
-    .map_err(|e| {
-        let at = match deck.discretization {
-            Discretization::Lattice {
-                horizon_ratio: Some(_),
-                ..
-            } => "discretization.horizon_ratio",
-            _ => "discretization.horizon",
-        };
-        ld.locate(vec![DeckIssue::new(at, e)])
-    })?;
-    let bonds = build_bonds(&body, rule, &deck.precracks);
+    let families = Families {
+        rule,
+        bytes_per_bond: memory::bytes_per_bond(
+            Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
+        ),
+        bytes_per_node: per_node,
+    };
+    let Part {
+        body,
+        bonds,
+        globals,
+    } = part(body, &families)?;
+    let material_of = match globals {
+        Some(g) => g.iter().map(|&i| material_of[i as usize]).collect(),
+        None => material_of,
+    };
 
     let loading =
         super::stages::loading(&body, &deck.boundary_conditions, &deck.loads, &deck.solver);

@@ -32,11 +32,12 @@ impl DissipationTracker {
         self.status.clone_from(&state.status);
     }
 
-    /// Σ_i V_i (W_i before − W_i after) over the nodes whose bond status changed since
+    /// Per node chunk that broke a half, in chunk order: Σ_i V_i (W_i before − W_i after)
+    /// over its nodes whose bond status changed since
     /// `remember`. `energy(i, status)` is W_i at the booking's positions with that status.
     /// Chunks whose nodes broke no own half (`broke_in_chunk`) are skipped: a node's energy
-    /// depends on its own halves only (an entry's other-half bit changes nothing in W_i). Summed per node chunk in a fixed order: the same
-    /// bits for any number of threads.
+    /// depends on its own halves only (an entry's other-half bit changes nothing in W_i). The
+    /// caller sums the chunks in order: the same bits for any number of threads (and ranks).
     pub fn released<const D: usize>(
         &self,
         chunks: &[Range<usize>],
@@ -45,7 +46,7 @@ impl DissipationTracker {
         volumes: &[f64],
         state: &State<D>,
         energy: impl Fn(usize, &[u8]) -> f64 + Sync,
-    ) -> f64 {
+    ) -> Vec<f64> {
         let (old, new) = (&self.status[..], &state.status[..]);
         let per_chunk: Vec<f64> = chunks
             .par_iter()
@@ -60,6 +61,6 @@ impl DissipationTracker {
                     })
             })
             .collect();
-        per_chunk.iter().sum()
+        per_chunk
     }
 }

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 
 /// Nodes per parallel work unit.
-const NODE_CHUNK: usize = 256;
+pub const NODE_CHUNK: usize = 256;
 
 /// Force evaluation for one material and damage law over one body: owns the material, the
 /// damage law, the quadrature weights and the per-node pre-pass buffer.
@@ -44,6 +44,9 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     broke_in_chunk: Vec<u64>,
     /// Mid-step positions of the booking (reused buffer).
     mid_step: Vec<Vector<D>>,
+    /// The other ranks of a distributed run (`solver::ranks`): the halves broken and the
+    /// energy released are summed over every rank.
+    pub ranks: Option<std::sync::Arc<dyn super::ranks::Ranks>>,
 }
 
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
@@ -292,6 +295,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             dissipation: DissipationTracker::default(),
             broke_in_chunk: Vec::new(),
             mid_step: Vec::new(),
+            ranks: None,
         })
     }
 
@@ -324,7 +328,14 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     ) -> u64 {
         let mut tracker = std::mem::take(&mut self.dissipation);
         tracker.remember(state);
-        let broke = self.evaluate(body, bonds, state);
+        let mut broke = self.evaluate(body, bonds, state);
+        if let Some(ranks) = &self.ranks {
+            // Every rank books the release when any rank broke a half (the sum continues
+            // through ranks that broke none).
+            let local = broke;
+            broke = ranks.sum_u64(local);
+            state.broken += broke - local;
+        }
         if broke > 0 {
             // The mid-step positions, in a buffer kept between evaluations.
             let mut mid_step = std::mem::take(&mut self.mid_step);
@@ -343,7 +354,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             } else {
                 &mid_step
             };
-            state.dissipated_damage += tracker.released(
+            let per_chunk = tracker.released(
                 &self.chunks,
                 &self.broke_in_chunk,
                 bonds,
@@ -354,6 +365,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     self.node_energy_with(body, bonds, at, record, i)
                 },
             );
+            state.dissipated_damage += match &self.ranks {
+                None => per_chunk.iter().sum(),
+                Some(ranks) => ranks.chain(&mut |before| match before {
+                    None => per_chunk.iter().sum(),
+                    Some(a) => per_chunk.iter().fold(a, |acc, t| acc + t),
+                }),
+            };
             self.mid_step = mid_step;
         }
         self.dissipation = tracker;

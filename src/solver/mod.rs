@@ -8,6 +8,7 @@ pub mod forces;
 pub mod impactor;
 pub mod ncg;
 pub mod quasi_static;
+pub mod ranks;
 pub mod verlet;
 
 pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};

@@ -3,6 +3,7 @@
 
 use super::contact::NodeContact;
 use super::impactor::{Impactor, Impactors};
+use super::ranks::{ordered_fold, ordered_sum, Share};
 use super::ForceEngine;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
@@ -31,6 +32,9 @@ pub enum StepError {
         /// What else to look at for this material (empty for central models).
         hint: &'static str,
     },
+    /// A distributed run stopped: the message of the rank that diagnosed it.
+    #[error("{0}")]
+    OnAnotherRank(String),
     #[error(
         "the quasi-static solver did not converge in load step {step} (load time {time:e}): {what}"
     )]
@@ -63,6 +67,8 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     /// Constrained (node, component) pairs, and the same as a per-node mask.
     constrained: Vec<(usize, usize)>,
     pub(super) constrained_mask: Vec<[bool; 3]>,
+    /// This process's share of a distributed run (`None`: the whole body, one process).
+    pub share: Option<Share>,
 }
 
 impl<const D: usize, M: Material<D>> Simulation<D, M> {
@@ -80,16 +86,47 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         dt: Option<f64>,
         safety_factor: f64,
     ) -> Result<Self, StepError> {
+        Self::new_shared(
+            body,
+            bonds,
+            material,
+            damage,
+            rule,
+            loading,
+            (dt, safety_factor),
+            None,
+        )
+    }
+
+    /// `new` for one rank's `share` of a distributed run (`body` and `bonds` its owned nodes
+    /// and ghosts, `solver::ranks`): the stable time step is the smallest over every rank.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_shared(
+        body: Body<D>,
+        bonds: Bonds,
+        material: M,
+        damage: impl Into<Damage>,
+        rule: PartialVolume,
+        loading: Loading<D>,
+        (dt, safety_factor): (Option<f64>, f64),
+        share: Option<Share>,
+    ) -> Result<Self, StepError> {
         let damage = damage.into();
         let history_words = damage.history_words(crate::solver::bond_force::<D, M>());
         let keep_previous = damage.records_work() && !M::CENTRAL;
         let splits_work = damage.splits_work(crate::solver::bond_force::<D, M>());
-        let engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
-        let dt_stable = engine.stable_time_step(&body, &bonds);
+        let mut engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
+        let mut dt_stable = engine.stable_time_step(&body, &bonds);
+        if let Some(s) = &share {
+            // A ghost has no family here (infinite step): the owners' count.
+            dt_stable = s.ranks.min_f64(dt_stable);
+            engine.ranks = Some(s.ranks.clone());
+        }
         let densities = (0..body.len())
             .map(|i| engine.material.density(i))
             .collect();
-        let (constrained, mask) = constraints(&loading, body.len());
+        let owned = share.as_ref().map_or(body.len(), |s| s.owned);
+        let (constrained, mask) = constraints(&loading, body.len(), owned);
         let mut state = State::new(&body, &bonds, history_words);
         if keep_previous {
             state.previous = state.current.clone();
@@ -113,6 +150,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             impactors: Impactors::default(),
             constrained,
             constrained_mask: mask,
+            share,
         };
         sim.loading
             .apply_displacements(&sim.body, &mut sim.state, 0.0);
@@ -124,7 +162,8 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
     /// Takes `loading` without applying it: for a state that already has it applied (one
     /// restored from a checkpoint).
     pub fn replace_loading(&mut self, loading: Loading<D>) {
-        (self.constrained, self.constrained_mask) = constraints(&loading, self.body.len());
+        (self.constrained, self.constrained_mask) =
+            constraints(&loading, self.body.len(), self.owned());
         self.loading = loading;
     }
 
@@ -139,6 +178,19 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .apply_displacements(&self.body, &mut self.state, t);
         self.loading.apply_end_velocities(&mut self.state, t);
         self.refresh_forces()
+    }
+
+    /// The nodes this process owns: local 0..owned (all, in one process).
+    pub fn owned(&self) -> usize {
+        self.share.as_ref().map_or(self.body.len(), |s| s.owned)
+    }
+
+    /// A distributed run's ghosts take their owners' displacements, velocities and
+    /// positions (before a force evaluation reads them).
+    fn exchange_ghosts(&mut self) {
+        if let Some(s) = &self.share {
+            s.halo.exchange(&*s.ranks, &mut self.state);
+        }
     }
 
     /// v += dt/2 · a with a = (f + b)/ρ − η v, in parallel (each node on its own).
@@ -156,19 +208,20 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
 
     /// Viscous power Σ ρ V η |v|², summed in a fixed order (deterministic for any thread count).
     fn viscous_power(&self) -> f64 {
-        self.state
-            .v
+        let owned = self.owned();
+        let terms = self.state.v[..owned]
             .iter()
             .zip(&self.body.volumes)
             .zip(&self.densities)
-            .map(|((v, vol), rho)| rho * vol * self.loading.damping * v.norm_squared())
-            .sum()
+            .map(|((v, vol), rho)| rho * vol * self.loading.damping * v.norm_squared());
+        ordered_sum(self.share.as_ref(), terms)
     }
 
     /// Re-evaluates forces (and body forces) at the current state; call it after changing
     /// `state.u` by hand (an initial displacement field) so the next step starts consistent.
     /// Returns the bond halves broken.
     pub fn refresh_forces(&mut self) -> Result<u64, StepError> {
+        self.exchange_ghosts();
         let broken = self
             .engine
             .compute(&self.body, &self.bonds, &mut self.state);
@@ -231,6 +284,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             });
         self.loading
             .apply_displacements(&self.body, &mut self.state, t1);
+        self.exchange_ghosts();
         self.counters.integrate += started.elapsed();
 
         let started = Instant::now();
@@ -246,13 +300,19 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         self.loading.apply_end_velocities(&mut self.state, t1);
 
         // Work of the constraints: ΔKE of the dof minus the work of the other forces on it.
-        let mut work = self.body_force_work(&u_old_free_work) + self.impactors.end_step(dt);
-        for (&(i, k), &(u0, v0, f0)) in self.constrained.iter().zip(&before) {
-            let (u1, v1) = (self.state.u[i][k], self.state.v[i][k]);
-            let f1 = self.body.volumes[i] * (self.state.force[i][k] + self.state.body_force[i][k]);
-            work += 0.5 * self.densities[i] * self.body.volumes[i] * (v1 * v1 - v0 * v0)
-                - 0.5 * (f0 + f1) * (u1 - u0);
-        }
+        let work = self.body_force_work(&u_old_free_work) + self.impactors.end_step(dt);
+        let terms = self
+            .constrained
+            .iter()
+            .zip(&before)
+            .map(|(&(i, k), &(u0, v0, f0))| {
+                let (u1, v1) = (self.state.u[i][k], self.state.v[i][k]);
+                let f1 =
+                    self.body.volumes[i] * (self.state.force[i][k] + self.state.body_force[i][k]);
+                0.5 * self.densities[i] * self.body.volumes[i] * (v1 * v1 - v0 * v0)
+                    - 0.5 * (f0 + f1) * (u1 - u0)
+            });
+        let work = ordered_fold(self.share.as_ref(), work, terms);
         self.state.external_work += work;
         self.state.dissipated_viscous += dissipated;
         self.state.time = t1;
@@ -281,23 +341,36 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             return 0.0;
         }
         let mask = &self.constrained_mask;
-        let mut w = 0.0;
-        for (i, (b0, u0)) in start.iter().enumerate() {
-            for k in 0..D {
-                if !mask[i][k] {
-                    w += self.body.volumes[i]
+        let terms = start[..self.owned()]
+            .iter()
+            .enumerate()
+            .flat_map(|(i, (b0, u0))| {
+                (0..D).filter(move |&k| !mask[i][k]).map(move |k| {
+                    self.body.volumes[i]
                         * 0.5
                         * (b0[k] + self.state.body_force[i][k])
-                        * (self.state.u[i][k] - u0[k]);
-                }
-            }
-        }
-        w
+                        * (self.state.u[i][k] - u0[k])
+                })
+            });
+        ordered_fold(self.share.as_ref(), 0.0, terms)
     }
 
     /// Checks every node for a non-finite displacement, velocity or force; names the first.
     pub fn check_finite(&self) -> Result<(), StepError> {
-        for i in 0..self.body.len() {
+        let found = self.first_non_finite();
+        match &self.share {
+            None => found,
+            // Every rank stops, with the first node of the lowest rank that found one.
+            Some(s) => match s.ranks.first_message(found.err().map(|e| e.to_string())) {
+                None => Ok(()),
+                Some(message) => Err(StepError::OnAnotherRank(message)),
+            },
+        }
+    }
+
+    fn first_non_finite(&self) -> Result<(), StepError> {
+        let first = self.share.as_ref().map_or(0, |s| s.first);
+        for i in 0..self.owned() {
             for (quantity, v) in [
                 ("displacement", &self.state.u[i]),
                 ("velocity", &self.state.v[i]),
@@ -307,7 +380,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
                     return Err(StepError::Unstable {
                         step: self.state.step,
                         time: self.state.time,
-                        node: i,
+                        node: first + i,
                         position: self.body.positions[i].iter().cloned().collect(),
                         quantity,
                         value,
@@ -335,19 +408,36 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         }
         let node_energy =
             |i: usize| self.densities[i] * self.body.volumes[i] * self.state.v[i].norm_squared();
-        let node = (0..self.body.len())
+        let node = (0..self.owned())
             .max_by(|&a, &b| node_energy(a).total_cmp(&node_energy(b)))
             .unwrap_or(0);
-        Err(StepError::Unstable {
+        if let Some(s) = &self.share {
+            // The node of the rank with the largest (the last such rank on a tie, as
+            // `max_by` picks the last).
+            let top = s.ranks.max_f64(node_energy(node));
+            let mine = (node_energy(node) == top).then_some(s.ranks.rank());
+            let last = s.ranks.max_f64(mine.map_or(-1.0, |r| r as f64));
+            let message = (mine == Some(last as usize))
+                .then(|| self.unstable_speed(s.first + node, node).to_string());
+            let message = s.ranks.first_message(message).unwrap_or_default();
+            return Err(StepError::OnAnotherRank(message));
+        }
+        Err(self.unstable_speed(node, node))
+    }
+
+    /// The instability of a node (global index `node`, local `i`) faster than the energy put
+    /// in allows.
+    fn unstable_speed(&self, node: usize, i: usize) -> StepError {
+        StepError::Unstable {
             step: self.state.step,
             time: self.state.time,
             node,
-            position: self.body.positions[node].iter().cloned().collect(),
+            position: self.body.positions[i].iter().cloned().collect(),
             quantity:
                 "speed (m/s; the body's kinetic energy is more than ten times the energy put in)",
-            value: self.state.v[node].norm(),
+            value: self.state.v[i].norm(),
             hint: Self::instability_hint(),
-        })
+        }
     }
 
     fn instability_hint() -> &'static str {
@@ -360,13 +450,31 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
 
     /// Kinetic energy (J).
     pub fn kinetic_energy(&self) -> f64 {
-        self.state.kinetic_energy(&self.body, &self.densities)
+        match &self.share {
+            None => self.state.kinetic_energy(&self.body, &self.densities),
+            Some(s) => {
+                let terms = (0..s.owned).map(|i| {
+                    0.5 * self.densities[i] * self.body.volumes[i] * self.state.v[i].norm_squared()
+                });
+                ordered_sum(Some(s), terms)
+            }
+        }
     }
 
     /// Strain energy (J).
     pub fn strain_energy(&self) -> f64 {
-        self.engine
-            .strain_energy(&self.body, &self.bonds, &self.state)
+        match &self.share {
+            None => self
+                .engine
+                .strain_energy(&self.body, &self.bonds, &self.state),
+            Some(s) => {
+                let w = self
+                    .engine
+                    .energy_density(&self.body, &self.bonds, &self.state);
+                let terms = (0..s.owned).map(|i| w[i] * self.body.volumes[i]);
+                ordered_sum(Some(s), terms)
+            }
+        }
     }
 
     /// External force (N) that holds a node set: −Σ_i V_i f_int,i over the set.
@@ -382,9 +490,11 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
 fn constraints<const D: usize>(
     loading: &Loading<D>,
     n: usize,
+    owned: usize,
 ) -> (Vec<(usize, usize)>, Vec<[bool; 3]>) {
     let mask = loading.constrained_mask(n);
-    let pairs = (0..n)
+    // A ghost's constraint is its owner's to book.
+    let pairs = (0..owned)
         .flat_map(|i| (0..D).map(move |k| (i, k)))
         .filter(|&(i, k)| mask[i][k])
         .collect();

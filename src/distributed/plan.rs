@@ -1,0 +1,99 @@
+//! `peridyn check --ranks N`: the decomposition a distributed run of N ranks would make, rank
+//! by rank (owned nodes, ghosts, bonds, halo bytes per step, memory), predicted in one process.
+
+use super::partition::{bond_weights, ranges};
+use crate::bonds::search::build_bonds_of;
+use crate::bonds::Bonds;
+use crate::deck::build::{build_model_with, Part};
+use crate::deck::{DeckError, DeckIssue, LoadedDeck};
+use std::ops::Range;
+
+/// One rank's share as predicted.
+#[derive(Debug, Clone)]
+pub struct RankPlan {
+    pub nodes: Range<usize>,
+    pub ghosts: usize,
+    /// Directed bonds of the owned families.
+    pub bonds: usize,
+    /// Bytes the rank sends each step (u, v, y of the nodes its peers have as ghosts).
+    pub halo_bytes: usize,
+    /// Owned and ghost nodes at the largest model's bytes per node, plus the bonds.
+    pub memory_bytes: usize,
+}
+
+impl std::fmt::Display for RankPlan {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "nodes {}..{} ({} owned, {} ghosts), {} directed bonds, halo {:.1} kB sent per step, memory estimate {:.1} MB",
+            self.nodes.start,
+            self.nodes.end,
+            self.nodes.len(),
+            self.ghosts,
+            self.bonds,
+            self.halo_bytes as f64 / 1e3,
+            self.memory_bytes as f64 / 1e6
+        )
+    }
+}
+
+/// The shares of `ranks` ranks. Each rank's families are searched in turn (one at a time in
+/// memory); the halo a rank sends is what the others have of it as ghosts.
+pub fn plan<const D: usize>(ld: &LoadedDeck, ranks: usize) -> Result<Vec<RankPlan>, DeckError> {
+    let mut plans = Vec::new();
+    build_model_with::<D>(ld, |body, families| {
+        let weights = bond_weights(&body, families.rule);
+        let Some(ranges) = ranges(&weights, ranks) else {
+            return Err(ld.locate(vec![DeckIssue::new(
+                "discretization",
+                format!(
+                    "{} nodes are too few for {ranks} ranks (each needs at least {})",
+                    body.len(),
+                    crate::solver::forces::NODE_CHUNK
+                ),
+            )]));
+        };
+        let mut sent = vec![0usize; ranks];
+        for r in &ranges {
+            let Some(b) = build_bonds_of(&body, families.rule, &ld.deck.precracks, r.clone())
+            else {
+                return Err(ld.locate(vec![DeckIssue::new(
+                    "discretization",
+                    "nodes of different horizons are not yet distributed",
+                )]));
+            };
+            let mut ghosts: Vec<u32> = b
+                .neighbors
+                .iter()
+                .copied()
+                .filter(|&j| !r.contains(&(j as usize)))
+                .collect();
+            ghosts.sort_unstable();
+            ghosts.dedup();
+            for &g in &ghosts {
+                sent[ranges.partition_point(|q| q.end <= g as usize)] += 3 * D * 8;
+            }
+            plans.push(RankPlan {
+                nodes: r.clone(),
+                ghosts: ghosts.len(),
+                bonds: b.len(),
+                halo_bytes: 0,
+                memory_bytes: (r.len() + ghosts.len()) * families.bytes_per_node
+                    + b.len() * families.bytes_per_bond,
+            });
+        }
+        for (p, s) in plans.iter_mut().zip(sent) {
+            p.halo_bytes = s;
+        }
+        let n = body.len();
+        Ok(Part {
+            body,
+            bonds: Bonds {
+                offsets: vec![0; n + 1],
+                ..Default::default()
+            },
+            globals: None,
+        })
+    })?;
+    Ok(plans)
+}

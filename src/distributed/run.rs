@@ -1,0 +1,236 @@
+//! A run distributed over ranks: `run::run_model`'s stages with the pieces a rank must do
+//! differently — it builds its share of the body and bonds, exchanges its halo inside each
+//! step (`Simulation::share`), and gathers the fields rank 0's observers read; rank 0 alone
+//! writes the files.
+
+use super::gather::Gather;
+use super::partition::{bond_weights, ranges};
+use super::refuse::{constitution_refusal, deck_refusal};
+use super::share::split;
+use crate::body::Body;
+use crate::deck::build::{build_constitution, build_model_with, MaterialChoice, Model, Part};
+use crate::deck::solver_settings::solver_settings;
+use crate::deck::LoadedDeck;
+use crate::grid::GridReport;
+use crate::material::Material;
+use crate::run::finish::{finish, Finished};
+use crate::run::observers::{attach_to, Attached};
+use crate::run::restart::checkpoints;
+use crate::run::stages::{drive_stages, Watch};
+use crate::run::{
+    prepare_shared, resolved, with_threads, DamageAndReports, ModelReport, RunControl, RunError,
+    RunOptions, RunSummary,
+};
+use crate::solver::ranks::{Halo, Ranks, Share};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Runs a deck over `ranks` (every rank calls it); the summary is rank 0's to print.
+pub fn run_with(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+    ranks: Arc<dyn Ranks>,
+) -> Result<RunSummary, RunError> {
+    deck_refusal(ld, control, ranks.size())?;
+    with_threads(opts.threads, || match ld.deck.dimension {
+        2 => run_dim::<2>(ld, opts, control, ranks),
+        _ => run_dim::<3>(ld, opts, control, ranks),
+    })?
+}
+
+/// What building a rank's share leaves besides the model.
+struct Built<const D: usize> {
+    /// Rank 0: the whole body.
+    whole: Option<Body<D>>,
+    first: usize,
+    owned: usize,
+    halo: Halo,
+    grid: Option<GridReport>,
+}
+
+fn run_dim<const D: usize>(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+    ranks: Arc<dyn Ranks>,
+) -> Result<RunSummary, RunError> {
+    let mut built: Option<Built<D>> = None;
+    let size = ranks.size();
+    let model = build_model_with::<D>(ld, |body, families| {
+        let weights = bond_weights(&body, families.rule);
+        let Some(ranges) = ranges(&weights, size) else {
+            return Err(too_few(ld, body.len(), size));
+        };
+        let Some(s) = split(&body, families.rule, &ld.deck.precracks, &ranges, &*ranks) else {
+            return Err(not_distributed(ld, "nodes of different horizons", size));
+        };
+        let spacing = (ranks.min_f64(s.spacing.0), ranks.max_f64(s.spacing.1));
+        let root = ranks.rank() == 0;
+        built = Some(Built {
+            grid: root.then(|| crate::grid::grid_report_spaced(ld, &body, spacing)),
+            whole: root.then_some(body),
+            first: s.owned.start,
+            owned: s.owned.len(),
+            halo: s.halo,
+        });
+        Ok(Part {
+            body: s.body,
+            bonds: s.bonds,
+            globals: Some(s.globals),
+        })
+    })?;
+    let built = built.expect("the share was built");
+    let c = build_constitution(ld, &model)?;
+    let (material, rest) = c.split();
+    constitution_refusal(&material, &rest, size)?;
+    match material {
+        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
+        _ => unreachable!("refused above"),
+    }
+}
+
+/// Refuses a body too small to give every rank a node chunk.
+fn too_few(ld: &LoadedDeck, nodes: usize, ranks: usize) -> crate::deck::DeckError {
+    not_distributed(
+        ld,
+        &format!(
+            "a body of {nodes} nodes on {ranks} ranks (each rank needs at least {} nodes)",
+            crate::solver::forces::NODE_CHUNK
+        ),
+        ranks,
+    )
+}
+
+fn not_distributed(ld: &LoadedDeck, what: &str, ranks: usize) -> crate::deck::DeckError {
+    ld.locate(vec![crate::deck::DeckIssue::new(
+        "discretization",
+        format!("{what} is not yet distributed: run it on 1 rank (this run has {ranks})"),
+    )])
+}
+
+fn run_model<const D: usize, M: Material<D>>(
+    ld: &LoadedDeck,
+    model: Model<D>,
+    material: M,
+    rest: DamageAndReports,
+    (opts, control): (&RunOptions, &RunControl),
+    built: Built<D>,
+    ranks: Arc<dyn Ranks>,
+) -> Result<RunSummary, RunError> {
+    let out = &opts.out_dir;
+    let root = ranks.rank() == 0;
+    let Built {
+        whole,
+        first,
+        owned,
+        halo,
+        grid,
+    } = built;
+    let global_nodes = ranks.sum_u64(owned as u64) as usize;
+    if !opts.quiet {
+        eprintln!(
+            "rank {} of {}: nodes {}..{} ({} owned, {} ghosts from {} peers), halo {} B sent per step",
+            ranks.rank(),
+            ranks.size(),
+            first,
+            first + owned,
+            owned,
+            halo.ghosts(),
+            halo.peers.len(),
+            halo.bytes_sent(3 * D)
+        );
+    }
+    let share = Share {
+        ranks: ranks.clone(),
+        first,
+        owned,
+        global_nodes,
+        halo,
+    };
+    let (mut sim, report) = prepare_shared(ld, model, material, rest, Some(share))?;
+    let report = whole_report::<D, M>(report, &sim, grid, &*ranks);
+    // Node 0's density on every rank (the crack tip's Rayleigh speed reads it on rank 0).
+    let densities = ranks.gather(&sim.densities[..owned]);
+    let resolved = resolved::resolved_deck(ld)?;
+    let origin = crate::checkpoint::Origin::new(&resolved, &ld.file);
+    let (attached, whole) = if root {
+        resolved::write_start(ld, &resolved, &report, None, out)?;
+        let body = whole.expect("rank 0 keeps the whole body");
+        let densities = densities.expect("gathered on rank 0");
+        let at = (sim.state.step, sim.state.time);
+        let attached = attach_to(ld, opts, (&body, densities[0]), &report, (false, false), at)?;
+        (Some(attached), Some((body, densities)))
+    } else {
+        (None, None)
+    };
+    // The snapshots' schedule as `observers::attach` makes it (checkpoints follow it).
+    let snapshot_every = match ld.deck.output.snapshots {
+        0 => u64::MAX,
+        k => report.steps.div_ceil(k).max(1),
+    };
+    let checkpoints = checkpoints(&ld.deck, out, origin, snapshot_every);
+    let (mut observers, crack, path, surface) = match attached {
+        Some(Attached {
+            observers,
+            crack,
+            path,
+            surface,
+            ..
+        }) => (observers, crack, path, surface),
+        None => (Vec::new(), None, None, None),
+    };
+    let mut gather = Gather::new(ranks.clone(), owned, whole);
+    let started = Instant::now();
+    let result = {
+        let stop_after = control.stop_after_step;
+        let mut watch = Watch::new(&mut observers, checkpoints, stop_after, None, false)
+            .with_source(&mut gather);
+        drive_stages(
+            &mut sim,
+            solver_settings(&ld.deck),
+            &report,
+            Vec::new(),
+            &mut watch,
+        )
+    };
+    let finished = Finished {
+        result,
+        started,
+        latest_checkpoint: None,
+        crack,
+        path,
+        surface,
+        nodes: global_nodes,
+        writes: root,
+    };
+    finish(ld, &mut sim, observers, report, finished, out)
+}
+
+/// The report of the whole model from a rank's share: node and bond counts, memory and the
+/// grid as one process reports them.
+fn whole_report<const D: usize, M: Material<D>>(
+    mut report: ModelReport,
+    sim: &crate::solver::Simulation<D, M>,
+    grid: Option<GridReport>,
+    ranks: &dyn Ranks,
+) -> ModelReport {
+    let nodes = sim
+        .share
+        .as_ref()
+        .map_or(sim.body.len(), |s| s.global_nodes);
+    let directed = ranks.sum_u64(sim.bonds.len() as u64) as usize;
+    report.nodes = nodes;
+    report.bonds = directed / 2;
+    report.bonds_per_node = directed as f64 / nodes.max(1) as f64;
+    report.memory_bytes = nodes
+        * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>() + M::NODE_BYTES)
+        + directed * report.bytes_per_bond;
+    for m in &mut report.materials {
+        m.nodes = nodes;
+    }
+    if let Some(g) = grid {
+        report.grid = g;
+    }
+    report
+}

@@ -1,0 +1,141 @@
+//! A simulation distributed over several processes (ranks): what a rank's share of the run
+//! needs of the others, as a trait (the transport, MPI, lives in `distributed/` behind the
+//! `mpi` feature), and the halo of ghost nodes a share reads.
+//!
+//! A share owns a contiguous range of the global (Morton) node order; its local nodes are
+//! the owned ones first, in global order, then its ghosts (the nodes of other ranks that its
+//! families reach), in global order. Every family is an owned node's row, exactly as one
+//! process builds it, so each node's gather reads the same inputs in the same order. Sums
+//! over nodes are continued from rank to rank in rank order (`Ranks::chain`), which is the
+//! one process's left-to-right order: the same bits for any number of ranks.
+
+use crate::math::Vector;
+use crate::state::State;
+use std::sync::Arc;
+
+/// The other ranks of a distributed run, seen from one.
+pub trait Ranks: Send + Sync {
+    fn rank(&self) -> usize;
+    fn size(&self) -> usize;
+    /// Continues a left fold across the ranks in rank order: rank 0 calls `local(None)`, rank
+    /// r `local(Some(a))` with rank r − 1's result a; every rank returns the last rank's.
+    fn chain(&self, local: &mut dyn FnMut(Option<f64>) -> f64) -> f64;
+    /// Σ over ranks (exact: integers).
+    fn sum_u64(&self, x: u64) -> u64;
+    /// The smallest over ranks (exact in any order).
+    fn min_f64(&self, x: f64) -> f64;
+    /// The largest over ranks (exact in any order).
+    fn max_f64(&self, x: f64) -> f64;
+    /// Sends `send[k]` to rank `peers[k]` and receives its buffer into `recv[k]` (sized by
+    /// the caller).
+    fn swap(&self, peers: &[usize], send: &[Vec<f64>], recv: &mut [Vec<f64>]);
+    /// The message of the lowest rank that has one, on every rank.
+    fn first_message(&self, local: Option<String>) -> Option<String>;
+    /// Every rank's `local` on rank 0, in rank order (`None` on the others).
+    fn gather(&self, local: &[f64]) -> Option<Vec<f64>>;
+    /// Rank 0's `x` on every rank.
+    fn broadcast_bool(&self, x: bool) -> bool;
+}
+
+/// One rank's share of a distributed run.
+pub struct Share {
+    pub ranks: Arc<dyn Ranks>,
+    /// Global index of the first owned node (local node 0).
+    pub first: usize,
+    /// Owned nodes: local 0..owned; ghosts follow.
+    pub owned: usize,
+    /// Nodes of the whole body.
+    pub global_nodes: usize,
+    pub halo: Halo,
+}
+
+/// Which local nodes a rank sends to each peer, and which ghosts it receives from each.
+#[derive(Debug, Clone, Default)]
+pub struct Halo {
+    pub peers: Vec<usize>,
+    /// Per peer: owned local nodes the peer has as ghosts, in global order.
+    pub send: Vec<Vec<u32>>,
+    /// Per peer: local ghost nodes the peer owns, in global order.
+    pub recv: Vec<Vec<u32>>,
+}
+
+impl Halo {
+    /// Ghost nodes of this rank.
+    pub fn ghosts(&self) -> usize {
+        self.recv.iter().map(Vec::len).sum()
+    }
+
+    /// Bytes this rank sends per exchange of `words` f64 per node.
+    pub fn bytes_sent(&self, words: usize) -> usize {
+        8 * words * self.send.iter().map(Vec::len).sum::<usize>()
+    }
+
+    /// Brings the ghosts' displacement, velocity and current position up to their owners':
+    /// what a gather of a neighbour reads (positions; the velocity for the mid-step energy
+    /// of a breaking step).
+    pub fn exchange<const D: usize>(&self, ranks: &dyn Ranks, state: &mut State<D>) {
+        let words = 3 * D;
+        let send: Vec<Vec<f64>> = self
+            .send
+            .iter()
+            .map(|nodes| {
+                let mut buf = Vec::with_capacity(nodes.len() * words);
+                for &i in nodes {
+                    let i = i as usize;
+                    for v in [&state.u[i], &state.v[i], &state.current[i]] {
+                        buf.extend_from_slice(v.as_slice());
+                    }
+                }
+                buf
+            })
+            .collect();
+        let mut recv: Vec<Vec<f64>> = self
+            .recv
+            .iter()
+            .map(|n| vec![0.0; n.len() * words])
+            .collect();
+        ranks.swap(&self.peers, &send, &mut recv);
+        for (nodes, buf) in self.recv.iter().zip(&recv) {
+            for (&i, w) in nodes.iter().zip(buf.chunks_exact(words)) {
+                let i = i as usize;
+                state.u[i] = Vector::<D>::from_column_slice(&w[..D]);
+                state.v[i] = Vector::<D>::from_column_slice(&w[D..2 * D]);
+                state.current[i] = Vector::<D>::from_column_slice(&w[2 * D..]);
+            }
+        }
+    }
+}
+
+/// Σ of `terms` in the order of one process: this rank's terms (its owned nodes' or
+/// chunks') continue the sum of the ranks before it. `Iterator::sum` on rank 0 (and in one
+/// process), then a left fold from the partial sum handed on, which is the same left fold.
+pub fn ordered_sum(share: Option<&Share>, terms: impl Iterator<Item = f64>) -> f64 {
+    match share {
+        None => terms.sum(),
+        Some(s) => {
+            let mut terms = Some(terms);
+            s.ranks.chain(&mut |before| {
+                let terms = terms.take().expect("called once");
+                match before {
+                    None => terms.sum(),
+                    Some(a) => terms.fold(a, |acc, t| acc + t),
+                }
+            })
+        }
+    }
+}
+
+/// `ordered_sum` of a left fold that starts from `start` on rank 0 (a loop `w = start;
+/// w += t`).
+pub fn ordered_fold(share: Option<&Share>, start: f64, terms: impl Iterator<Item = f64>) -> f64 {
+    match share {
+        None => terms.fold(start, |acc, t| acc + t),
+        Some(s) => {
+            let mut terms = Some(terms);
+            s.ranks.chain(&mut |before| {
+                let terms = terms.take().expect("called once");
+                terms.fold(before.unwrap_or(start), |acc, t| acc + t)
+            })
+        }
+    }
+}

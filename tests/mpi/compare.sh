@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Runs each deck in one process and on 2 and 3 ranks (mpirun), and compares every output file
+# of the distributed runs with the single-process run's, byte for byte (summary.txt without its
+# wall-time lines). Needs a build with the `mpi` feature:
+#   cargo build --release --features mpi && tests/mpi/compare.sh [DECK...]
+# As root, Open MPI needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+bin=${PERIDYN:-target/release/peridyn}
+ranks=${RANKS:-"2 3"}
+if [ $# -eq 0 ]; then
+  set -- tests/mpi/pmb_notched.toml tests/mpi/pmb_plate_3d.toml
+fi
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+# The lines of summary.txt that depend on the wall clock (or the results folder).
+timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' "$1"; }
+failed=0
+for deck in "$@"; do
+  name=$(basename "$deck" .toml)
+  "$bin" run "$deck" -o "$out/$name/1" --quiet --threads 1 >/dev/null
+  for n in $ranks; do
+    mpirun -np "$n" --oversubscribe "$bin" run "$deck" -o "$out/$name/$n" --quiet --threads 1 >/dev/null
+    files=$(cd "$out/$name/1" && find . -type f | sort)
+    if [ "$files" != "$(cd "$out/$name/$n" && find . -type f | sort)" ]; then
+      echo "$name on $n ranks: other files than in one process"
+      failed=1
+      continue
+    fi
+    same=0 differ=0
+    for f in $files; do
+      if [ "$f" = ./summary.txt ]; then
+        cmp -s <(timeless "$out/$name/1/$f") <(timeless "$out/$name/$n/$f") && ok=1 || ok=0
+      else
+        cmp -s "$out/$name/1/$f" "$out/$name/$n/$f" && ok=1 || ok=0
+      fi
+      if [ $ok = 1 ]; then same=$((same + 1)); else differ=$((differ + 1)); echo "  differs: $f"; fi
+    done
+    echo "$name on $n ranks: $same files identical, $differ differ"
+    [ $differ = 0 ] || failed=1
+  done
+done
+exit $failed
