@@ -45,6 +45,22 @@ pub struct Row {
 }
 
 impl Row {
+    /// A row of the paper's result with nothing measured yet.
+    fn not_run(id: &str, quantity: &str, source: &str, paper: Option<f64>, unit: &str) -> Row {
+        Row {
+            id: id.into(),
+            quantity: quantity.into(),
+            source: source.into(),
+            paper,
+            unit: unit.into(),
+            measured: None,
+            values: Vec::new(),
+            status: Status::NotRun,
+            tolerance: String::new(),
+            note: String::new(),
+        }
+    }
+
     /// (measured − paper) / |paper|.
     pub fn relative_difference(&self) -> Option<f64> {
         match (self.measured, self.paper) {
@@ -64,16 +80,8 @@ pub fn judge_case(case: &LoadedCase, measured: Option<&Measured>, reduced: bool)
         .map(|r| judge(case, r, measured, reduced))
         .collect();
     rows.extend(case.case.not_run.iter().map(|r| Row {
-        id: r.id.clone(),
-        quantity: r.quantity.clone(),
-        source: r.source.clone(),
-        paper: r.paper,
-        unit: r.unit.clone(),
-        measured: None,
-        values: Vec::new(),
-        status: Status::NotRun,
-        tolerance: String::new(),
         note: format!("Needs: {}", r.needs),
+        ..Row::not_run(&r.id, &r.quantity, &r.source, r.paper, &r.unit)
     }));
     rows
 }
@@ -84,18 +92,7 @@ fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced
     } else {
         (r.tolerance, r.abs_tolerance)
     };
-    let mut row = Row {
-        id: r.id.clone(),
-        quantity: r.quantity.clone(),
-        source: r.source.clone(),
-        paper: r.paper,
-        unit: r.unit.clone(),
-        measured: None,
-        values: Vec::new(),
-        status: Status::NotRun,
-        tolerance: String::new(),
-        note: String::new(),
-    };
+    let mut row = Row::not_run(&r.id, &r.quantity, &r.source, r.paper, &r.unit);
     let Some(m) = measured else {
         row.note = "Not yet run at this size.".into();
         return row;

@@ -265,7 +265,7 @@ fn check_takes_a_study_file_or_a_deck() {
         String::from_utf8(out.stdout).unwrap()
     };
     let study = check("examples/seed004_morris_study.toml");
-    assert!(study.contains("study is valid, 14 runs"), "{study}");
+    assert!(study.contains("study is valid, 16 runs"), "{study}");
     assert!(LoadedStudy::is_study(
         &std::fs::read_to_string(root.join("examples/seed004_morris_study.toml")).unwrap()
     ));
