@@ -316,14 +316,7 @@ impl<const D: usize, M: Material<D> + 'static> Stepper<D, M> {
             let names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
             history = history.with_contact::<D>(&names);
         }
-        let title = if deck.title.is_empty() {
-            ld.file
-                .file_stem()
-                .map(|s| s.to_string_lossy().to_string())
-                .unwrap_or_default()
-        } else {
-            deck.title.clone()
-        };
+        let title = ld.title();
         let mut stepper = Stepper {
             given: energy_given(&sim),
             sim,

@@ -13,17 +13,20 @@ const CHUNK: usize = 2048;
 /// have fewer, so this is an upper estimate.
 pub fn estimate_bonds<const D: usize>(body: &Body<D>, rule: PartialVolume) -> f64 {
     (0..body.len())
-        .map(|i| {
-            let r = body.cell_sizes[i];
-            let reach = body.horizons[i] + rule.reach(r, D);
-            let ball = if D == 2 {
-                std::f64::consts::PI * reach * reach
-            } else {
-                4.0 / 3.0 * std::f64::consts::PI * reach.powi(3)
-            };
-            ball / r.powi(D as i32)
-        })
+        .map(|i| estimate_node_bonds(body, rule, i))
         .sum()
+}
+
+/// Node i's share of `estimate_bonds`.
+pub fn estimate_node_bonds<const D: usize>(body: &Body<D>, rule: PartialVolume, i: usize) -> f64 {
+    let r = body.cell_sizes[i];
+    let reach = body.horizons[i] + rule.reach(r, D);
+    let ball = if D == 2 {
+        std::f64::consts::PI * reach * reach
+    } else {
+        4.0 / 3.0 * std::f64::consts::PI * reach.powi(3)
+    };
+    ball / r.powi(D as i32)
 }
 
 /// Builds the families of every node: j is a neighbour of i when its cell can overlap either

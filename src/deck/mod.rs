@@ -132,6 +132,18 @@ impl LoadedDeck {
             .map(Path::to_path_buf)
             .unwrap_or_default()
     }
+
+    /// The deck's title, or its file name without extension when it has none.
+    pub fn title(&self) -> String {
+        if self.deck.title.is_empty() {
+            self.file
+                .file_stem()
+                .map(|s| s.to_string_lossy().to_string())
+                .unwrap_or_default()
+        } else {
+            self.deck.title.clone()
+        }
+    }
 }
 
 /// Parses TOML text into `T` (unknown keys rejected by `T`'s schema); a syntax or schema error

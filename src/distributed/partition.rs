@@ -11,16 +11,7 @@ use std::ops::Range;
 /// so a rank of many surface nodes gets a little less work than predicted.
 pub fn bond_weights<const D: usize>(body: &Body<D>, rule: PartialVolume) -> Vec<f64> {
     (0..body.len())
-        .map(|i| {
-            let r = body.cell_sizes[i];
-            let reach = body.horizons[i] + rule.reach(r, D);
-            let ball = if D == 2 {
-                std::f64::consts::PI * reach * reach
-            } else {
-                4.0 / 3.0 * std::f64::consts::PI * reach.powi(3)
-            };
-            ball / r.powi(D as i32)
-        })
+        .map(|i| crate::bonds::search::estimate_node_bonds(body, rule, i))
         .collect()
 }
 

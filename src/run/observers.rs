@@ -72,14 +72,7 @@ pub(crate) fn attach_to<const D: usize>(
         0 => u64::MAX,
         k => k,
     };
-    let title = if deck.title.is_empty() {
-        ld.file
-            .file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_default()
-    } else {
-        deck.title.clone()
-    };
+    let title = ld.title();
     let openings = opening_nodes(body, &deck.output.openings);
     let impactor_names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
     let history = |path: &std::path::Path| -> Box<dyn Observer<D>> {
