@@ -102,6 +102,10 @@ enum Command {
         /// Results folder of the runs (default: results/validation or results/validation-reduced).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// Only the first N values of each case's series (coarsest first): a pass over every
+        /// case before the long runs of the finest grids; a later run continues with the rest.
+        #[arg(long, value_name = "N")]
+        first: Option<usize>,
         #[arg(long)]
         threads: Option<usize>,
         #[arg(short, long)]
@@ -360,6 +364,7 @@ grid written to {}",
             report,
             root,
             output,
+            first,
             threads,
             quiet,
         } => (|| {
@@ -378,6 +383,7 @@ grid written to {}",
             let opts = ValidateOptions {
                 out_dir: output.unwrap_or_else(|| PathBuf::from("results").join(default_out)),
                 reduced,
+                first,
                 threads,
                 quiet,
             };

@@ -22,6 +22,8 @@ pub struct ValidateOptions {
     pub out_dir: PathBuf,
     /// The reduced (CI) version of each case.
     pub reduced: bool,
+    /// Only the first values of each series (the others stay not run).
+    pub first: Option<usize>,
     pub threads: Option<usize>,
     pub quiet: bool,
 }
@@ -100,11 +102,14 @@ impl Layout {
     }
 }
 
-/// Runs a case (or continues it) and returns what it measured.
+/// Runs a case (or continues it) and returns what it measured. The series runs one value at a
+/// time and `keep` receives the measurement after each, so a case stopped in its longest run
+/// (the finest grid) keeps what its shorter runs measured.
 pub fn run_case(
     case: &LoadedCase,
     layout: &Layout,
     opts: &ValidateOptions,
+    keep: &mut dyn FnMut(&Measured) -> Result<(), String>,
 ) -> Result<Measured, String> {
     let size = if opts.reduced { "reduced" } else { "full" };
     let mut measured = Measured {
@@ -119,31 +124,49 @@ pub fn run_case(
         return Ok(measured);
     };
     let out = case_dir(case, opts);
-    let report = run_study(
-        &study,
-        &StudyOptions {
-            out_dir: out.clone(),
-            threads: opts.threads,
-            quiet: opts.quiet,
-        },
-    )
-    .map_err(|e| e.to_string())?;
-    for (k, run) in report.runs.iter().enumerate() {
-        let dir = out.join("runs").join(format!("run_{k:04}"));
-        let minutes = run_wall_minutes(&dir).unwrap_or(0.0);
-        measured.wall_minutes += minutes;
-        measured.runs.push(MeasuredRun {
-            series: run.values.first().copied(),
-            status: run.status.clone(),
-            wall_minutes: minutes,
-            outputs: study
-                .study
-                .outputs
-                .iter()
-                .zip(&run.outputs)
-                .filter_map(|(o, v)| v.map(|v| (o.name.clone(), v)))
-                .collect(),
-        });
+    let series = study
+        .study
+        .factors
+        .first()
+        .and_then(|f| f.values.clone())
+        .unwrap_or_default();
+    let last = opts.first.map_or(series.len(), |n| n.min(series.len()));
+    for upto in 1..=last.max(1) {
+        // The study over the first `upto` values continues the one over `upto - 1`: its
+        // earlier runs are found finished in `runs.csv` and not run again.
+        let mut part = study.clone();
+        if let Some(factor) = part.study.factors.first_mut() {
+            factor.values = Some(series[..upto].to_vec());
+        }
+        let report = run_study(
+            &part,
+            &StudyOptions {
+                out_dir: out.clone(),
+                threads: opts.threads,
+                quiet: opts.quiet,
+            },
+        )
+        .map_err(|e| e.to_string())?;
+        measured.wall_minutes = 0.0;
+        measured.runs.clear();
+        for (k, run) in report.runs.iter().enumerate() {
+            let dir = out.join("runs").join(format!("run_{k:04}"));
+            let minutes = run_wall_minutes(&dir).unwrap_or(0.0);
+            measured.wall_minutes += minutes;
+            measured.runs.push(MeasuredRun {
+                series: run.values.first().copied(),
+                status: run.status.clone(),
+                wall_minutes: minutes,
+                outputs: study
+                    .study
+                    .outputs
+                    .iter()
+                    .zip(&run.outputs)
+                    .filter_map(|(o, v)| v.map(|v| (o.name.clone(), v)))
+                    .collect(),
+            });
+        }
+        keep(&measured)?;
     }
     Ok(measured)
 }
@@ -301,18 +324,21 @@ pub fn validate(
             if !opts.quiet {
                 println!("case {}: {}", layout.relative(file), case.case.title);
             }
-            let measured = run_case(&case, layout, opts)?;
-            if opts.reduced {
-                measured.write(&case_dir(&case, opts).join("measured.toml"))?;
-                figures::draw(
-                    &case,
-                    &measured,
-                    &case_dir(&case, opts).join("runs"),
-                    &case_dir(&case, opts).join("figures"),
-                )?;
-            } else {
-                keep_full(&case, &measured, layout, opts)?;
-            }
+            let measured = run_case(&case, layout, opts, &mut |measured| {
+                if opts.reduced {
+                    measured.write(&case_dir(&case, opts).join("measured.toml"))?;
+                    figures::draw(
+                        &case,
+                        measured,
+                        &case_dir(&case, opts).join("runs"),
+                        &case_dir(&case, opts).join("figures"),
+                    )
+                    .map(|_| ())
+                } else {
+                    keep_full(&case, measured, layout, opts)?;
+                    write_report(layout).map(|_| ())
+                }
+            })?;
             let rows = verdict::judge_case(&case, Some(&measured), opts.reduced);
             done.cases.push((layout.relative(file), rows));
         }

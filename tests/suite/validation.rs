@@ -55,6 +55,7 @@ fn reduced_cases_reproduce_the_papers_numbers() {
     let opts = ValidateOptions {
         out_dir: out.clone(),
         reduced: true,
+        first: None,
         threads: None,
         quiet: true,
     };
