@@ -30,14 +30,22 @@
 //!
 //! While the body relaxes no bond may break or soften: every node is protected (the no-fail
 //! mechanism), so the damage state is the one of the last decision (a secant iteration for
-//! softening laws, exact for critical stretch). Work-based laws still record the work along
-//! the relaxation path, which for an elastic bond is the energy difference between its end
-//! states.
+//! softening laws, exact for critical stretch). Work-based laws integrate the work along the
+//! quasi-static path, from one decision to the next, never along the relaxation's iterates
+//! (or NCG's trial points), which are not a loading path: an LPS bond's force depends on its
+//! ends' dilatations as well as its own stretch, so the work along the relaxation's
+//! oscillations depends on how it oscillates (holding one grip and moving the other by 2u
+//! recorded up to 17 % more work than moving both by ∓u, the same strains). The work record
+//! (the bonds' history and the positions and matrices the last recording read) is therefore
+//! put back after each relaxation, and the decision's evaluation adds the trapezoid from the
+//! last decided equilibrium to this one (seed 002 Eq. 6 by the trapezoidal rule along the
+//! equilibrium path; exact for a proportional elastic step).
 
 use super::ncg::Ncg;
 use super::{Simulation, StepError};
 use crate::material::Material;
 use crate::math::Vector;
+use crate::state::State;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -123,6 +131,36 @@ pub struct QuasiStatic<const D: usize> {
     pub predictor: bool,
     /// Total ADR iterations.
     pub iterations: u64,
+}
+
+/// The bonds' work record as the last decision left it (module doc): their history words and
+/// the positions and correspondence matrices of the evaluation that recorded them.
+struct WorkRecord<const D: usize> {
+    history: Vec<f64>,
+    previous: Vec<Vector<D>>,
+    previous_matrices: Vec<f64>,
+}
+
+impl<const D: usize> WorkRecord<D> {
+    fn of(state: &State<D>) -> Self {
+        WorkRecord {
+            history: state.history.clone(),
+            previous: state.previous.clone(),
+            previous_matrices: state.previous_matrices.clone(),
+        }
+    }
+
+    fn keep(&mut self, state: &State<D>) {
+        self.history.clone_from(&state.history);
+        self.previous.clone_from(&state.previous);
+        self.previous_matrices.clone_from(&state.previous_matrices);
+    }
+
+    fn restore(&self, state: &mut State<D>) {
+        state.history.clone_from(&self.history);
+        state.previous.clone_from(&self.previous);
+        state.previous_matrices.clone_from(&self.previous_matrices);
+    }
 }
 
 /// What a quasi-static solver carries from one committed load step to the next (besides the
@@ -263,16 +301,19 @@ impl<const D: usize> QuasiStatic<D> {
         let mut report = LoadStepReport::default();
         // Forces at the new boundary values, nothing deciding.
         std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        let mut record = WorkRecord::of(&sim.state);
         let result = (|| {
             sim.refresh_forces()?;
             loop {
                 report.equilibria += 1;
                 report.iterations += self.relax(sim)?;
+                record.restore(&mut sim.state);
                 // The decision, with the user's no-fail sets.
                 std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
                 let broken = sim.refresh_forces();
                 std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
                 let broken = broken?;
+                record.keep(&sim.state);
                 report.broken += broken;
                 if abort_above.is_some_and(|n| report.broken > n) {
                     return Ok(false);

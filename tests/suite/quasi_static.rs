@@ -397,3 +397,91 @@ fn a_run_records_openings_and_draws_its_history() {
     }
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// The work each bond of an LPS plate with the critical-energy law (too tough to break) has
+/// recorded after one quasi-static load step that moves its bottom grip layer to `bottom` and
+/// its top one to `top` (m, in y); the equilibrium tolerance is tight (1e-9).
+fn preload_works(bottom: f64, top: f64, method: &str) -> Vec<f64> {
+    let text = format!(
+        r#"
+version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [0.01, 0.005] }}
+spacing = 0.25e-3
+horizon_ratio = 3.0
+
+[material]
+type = "lps"
+density = 1000.0
+youngs_modulus = 1e9
+poisson_ratio = 0.3
+fracture_energy = 1e9
+damage = {{ type = "critical_energy" }}
+
+[[node_sets]]
+name = "top"
+region = {{ type = "rectangle", min = [-1.0, 0.00425], max = [1.0, 1.0] }}
+[[node_sets]]
+name = "bottom"
+region = {{ type = "rectangle", min = [-1.0, -1.0], max = [1.0, 0.00075] }}
+
+[[boundary_conditions]]
+set = "bottom"
+kind = "displacement"
+component = "y"
+value = {bottom:e}
+time = {{ type = "ramp", duration = 1.0 }}
+[[boundary_conditions]]
+set = "top"
+kind = "displacement"
+component = "y"
+value = {top:e}
+time = {{ type = "ramp", duration = 1.0 }}
+
+[solver]
+type = "quasi_static"
+method = "{method}"
+load_steps = 1
+tolerance = 1e-9
+"#
+    );
+    let ld =
+        LoadedDeck::from_str(&text, Path::new("preload.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let (mut sim, report) = common::lps_deck_simulation(&ld).unwrap();
+    let qs = solver_settings(&ld.deck).quasi_static.unwrap();
+    drive_quasi_static(&mut sim, qs, report.steps, &mut []).unwrap();
+    let words = sim.state.history.len() / sim.bonds.len();
+    sim.state.history.iter().step_by(words).copied().collect()
+}
+
+/// The work a bond has taken in a quasi-static load step is that of the equilibrium path,
+/// not of the relaxation's iterates: holding the bottom grip and moving the top one by 2u
+/// gives the same strains as moving both by ∓u (a rigid translation apart), so every bond's
+/// work must agree. An LPS bond's force depends on both ends' dilatation, so the work along
+/// the relaxation's oscillations (or NCG's trial points) is path-dependent; recorded there it
+/// made the one-grip preload break bonds along its grip that the two-grip one did not.
+#[test]
+fn a_quasi_static_step_records_the_work_of_the_equilibrium_path() {
+    let u = 2e-6; // a strain of 8e-4
+    for method in ["adr", "ncg"] {
+        let one_grip = preload_works(0.0, 2.0 * u, method);
+        let two_grips = preload_works(-u, u, method);
+        let largest = two_grips.iter().copied().fold(0.0, f64::max);
+        assert!(largest > 0.0);
+        let differs = one_grip
+            .iter()
+            .zip(&two_grips)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            differs < 1e-5 * largest,
+            "{method}: bond works differ by {:.3e} of the largest",
+            differs / largest
+        );
+    }
+}

@@ -161,6 +161,19 @@ pub fn pmb_deck_simulation(ld: &LoadedDeck) -> Result<(Simulation<2, Pmb>, Model
     pmb_deck_simulation_in::<2>(ld)
 }
 
+/// A 2D deck of one LPS material built into its simulation and report, not run.
+pub fn lps_deck_simulation(
+    ld: &LoadedDeck,
+) -> Result<(Simulation<2, peridyn::material::Lps>, ModelReport), RunError> {
+    let model = build_model::<2>(ld)?;
+    let c = build_constitution(ld, &model)?;
+    let (material, rest) = c.split();
+    let MaterialChoice::Lps(lps) = material else {
+        panic!("a deck of one LPS material")
+    };
+    prepare(ld, model, lps, rest)
+}
+
 /// `pmb_deck_simulation` in dimension D.
 pub fn pmb_deck_simulation_in<const D: usize>(
     ld: &LoadedDeck,
