@@ -120,6 +120,9 @@ pub struct ResultSpec {
     pub output: String,
     /// With a series: the series value whose run the row reads.
     pub at: Option<f64>,
+    /// The reduced series' value whose run the row reads in CI (default `at`): a paper's
+    /// number asserted at the reduced size with its `reduced_tolerance`.
+    pub reduced_at: Option<f64>,
     /// measured = output × scale.
     #[serde(default = "one")]
     pub scale: f64,
@@ -440,6 +443,19 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
             (Some(_), None, None) => issue(
                 at("at"),
                 "with a [series], a value row names the series value it reads (`at`)".into(),
+            ),
+            _ => {}
+        }
+        match (series, r.reduced_at) {
+            (_, Some(_)) if r.at.is_none() => {
+                issue(at("reduced_at"), "`reduced_at` goes with `at`".into())
+            }
+            (Some(s), Some(a)) if !s.reduced.as_ref().unwrap_or(&s.values).contains(&a) => issue(
+                at("reduced_at"),
+                format!(
+                    "{a} is not one of the reduced series values {:?}",
+                    s.reduced.as_ref().unwrap_or(&s.values)
+                ),
             ),
             _ => {}
         }

@@ -129,14 +129,12 @@ fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced
         // At the reduced size a trend is asserted where the row says why it holds there.
         row.status = verdict(holds, reduced && r.why_reduced.trim().is_empty());
     } else {
-        let run = m
-            .runs
-            .iter()
-            .find(|run| run.series == r.at || r.at.is_none());
+        let at = if reduced { r.reduced_at.or(r.at) } else { r.at };
+        let run = m.runs.iter().find(|run| run.series == at || at.is_none());
         let Some(run) = run else {
             row.note = format!(
                 "The series value {} is not run at this size.",
-                r.at.unwrap_or(f64::NAN)
+                at.unwrap_or(f64::NAN)
             );
             return row;
         };

@@ -117,6 +117,9 @@ output = "speed"
 at = 400.0
 abs_tolerance = 50.0
 why = "50 m/s"
+reduced_at = 300.0
+reduced_abs_tolerance = 50.0
+why_reduced = "the other run"
 explanation = "it is slower"
 [[results]]
 id = "falls"
@@ -203,6 +206,11 @@ fn verdicts_follow_the_tolerances_and_trends() {
     let reduced = judge_case(&case, Some(&measured), true);
     assert_eq!(reduced[0].status, Status::Unchecked);
     assert_eq!(
+        (reduced[1].status, reduced[1].measured),
+        (Status::Pass, Some(520.0)),
+        "reduced_at reads the other run"
+    );
+    assert_eq!(
         reduced[3].status,
         Status::Unchecked,
         "a trend without why_reduced"
@@ -219,6 +227,11 @@ fn bad_case_files_are_refused_at_their_key() {
             "at = 300.0",
             "at = 350.0",
             "results[0].at: 350 is not one of the series values",
+        ),
+        (
+            "reduced_at = 300.0",
+            "reduced_at = 350.0",
+            "results[1].reduced_at: 350 is not one of the reduced series values",
         ),
         (
             "output = \"speed\"\nat = 400.0",
