@@ -55,6 +55,10 @@ enum Command {
         /// bytes per step and memory (docs/distributed.md).
         #[arg(long, value_name = "N")]
         ranks: Option<usize>,
+        /// With --ranks: the memory one rank may use, in GB (default: this machine's
+        /// available memory shared by the N ranks); a share larger than that is refused.
+        #[arg(long, value_name = "GB", requires = "ranks")]
+        rank_memory: Option<f64>,
     },
     /// Write a deck's grid without running it: nodes (VTU: volume, cell size, horizon, block)
     /// and, in 2D, a PNG of the nodes with the shape's outline.
@@ -300,27 +304,37 @@ fn main() -> ExitCode {
             deck,
             threads,
             ranks,
+            rank_memory,
         } => (|| {
             if std::fs::read_to_string(&deck).is_ok_and(|src| LoadedStudy::is_study(&src)) {
                 return check_study(&deck, threads);
             }
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
-            let (report, time) = check_timed(&ld, threads).map_err(|e| e.to_string())?;
-            println!("{}: deck is valid\n{report}", deck.display());
-            if let Some(time) = time {
-                println!("{time}");
-            }
-            if let Some(n) = ranks.filter(|&n| n > 1) {
-                let plans = match ld.deck.dimension {
-                    2 => peridyn::distributed::plan::plan::<2>(&ld, n),
-                    _ => peridyn::distributed::plan::plan::<3>(&ld, n),
+            let Some(n) = ranks.filter(|&n| n > 1) else {
+                let (report, time) = check_timed(&ld, threads).map_err(|e| e.to_string())?;
+                println!("{}: deck is valid\n{report}", deck.display());
+                if let Some(time) = time {
+                    println!("{time}");
                 }
-                .map_err(|e| e.to_string())?;
-                for (r, p) in plans.iter().enumerate() {
-                    println!("rank {r:<11} {p}");
-                }
+                return Ok(());
+            };
+            // Rank by rank only: a model meant for many ranks need not fit in this process.
+            let plans = match ld.deck.dimension {
+                2 => peridyn::distributed::plan::plan::<2>(&ld, n),
+                _ => peridyn::distributed::plan::plan::<3>(&ld, n),
             }
-            Ok(())
+            .map_err(|e| e.to_string())?;
+            println!("{}: deck is valid; {n} ranks would own", deck.display());
+            for (r, p) in plans.iter().enumerate() {
+                println!("rank {r:<11} {p}");
+            }
+            let per_rank = rank_memory
+                .map(|gb| (gb * 1e9) as u64)
+                .or_else(|| peridyn::memory::available_bytes().map(|b| b / n as u64));
+            match per_rank {
+                Some(bytes) => peridyn::distributed::plan::refuse_unfit(&plans, bytes),
+                None => Ok(()),
+            }
         })(),
         Command::Grid { deck, output } => (|| {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;

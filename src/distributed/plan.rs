@@ -97,3 +97,48 @@ pub fn plan<const D: usize>(ld: &LoadedDeck, ranks: usize) -> Result<Vec<RankPla
     })?;
     Ok(plans)
 }
+
+/// Refuses a decomposition whose largest share needs more than `per_rank` bytes, naming the
+/// rank, both numbers and the rank count that would fit.
+pub fn refuse_unfit(plans: &[RankPlan], per_rank: u64) -> Result<(), String> {
+    let Some((rank, largest)) = plans.iter().enumerate().max_by_key(|(_, p)| p.memory_bytes) else {
+        return Ok(());
+    };
+    if largest.memory_bytes as u64 <= per_rank {
+        return Ok(());
+    }
+    let total: usize = plans.iter().map(|p| p.memory_bytes).sum();
+    // Ghosts grow as shares shrink; the total is a lower bound of what the ranks need.
+    let at_least = total.div_ceil(per_rank.max(1) as usize);
+    Err(format!(
+        "rank {rank}'s share needs about {:.3} GB but a rank has {:.3} GB; \
+         use at least {at_least} ranks (or a larger spacing)",
+        largest.memory_bytes as f64 / 1e9,
+        per_rank as f64 / 1e9
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn share(memory_bytes: usize) -> RankPlan {
+        RankPlan {
+            nodes: 0..256,
+            ghosts: 0,
+            bonds: 0,
+            halo_bytes: 0,
+            memory_bytes,
+        }
+    }
+
+    #[test]
+    fn a_share_larger_than_a_rank_is_refused_with_both_numbers() {
+        let plans = [share(3_000_000_000), share(3_500_000_000)];
+        assert!(refuse_unfit(&plans, 4_000_000_000).is_ok());
+        let e = refuse_unfit(&plans, 2_000_000_000).unwrap_err();
+        assert!(e.contains("rank 1's share needs about 3.500 GB"), "{e}");
+        assert!(e.contains("a rank has 2.000 GB"), "{e}");
+        assert!(e.contains("at least 4 ranks"), "{e}");
+    }
+}
