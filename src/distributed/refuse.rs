@@ -79,8 +79,7 @@ pub fn constitution_refusal(
     ranks: usize,
 ) -> Result<(), RunError> {
     let model = match material {
-        MaterialChoice::Pmb(_) => None,
-        MaterialChoice::Lps(_) => Some("the LPS model"),
+        MaterialChoice::Pmb(_) | MaterialChoice::Lps(_) => None,
         MaterialChoice::Correspondence(_) => Some("the correspondence model"),
         MaterialChoice::Mixed(_) => Some("several materials"),
     };

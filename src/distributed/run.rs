@@ -86,6 +86,7 @@ fn run_dim<const D: usize>(
     constitution_refusal(&material, &rest, size)?;
     match material {
         MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
+        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
         _ => unreachable!("refused above"),
     }
 }
@@ -138,7 +139,7 @@ fn run_model<const D: usize, M: Material<D>>(
             owned,
             halo.ghosts(),
             halo.peers.len(),
-            halo.bytes_sent(3 * D)
+            halo.bytes_sent(3 * D + M::HALO_WORDS)
         );
     }
     let share = Share {
