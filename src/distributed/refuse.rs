@@ -97,9 +97,103 @@ pub fn constitution_refusal(
     }
     use crate::damage::Damage;
     match &rest.damage {
-        Damage::CriticalStretch(_) => Ok(()),
-        Damage::CriticalEnergy(_) => Err(refusal("the critical-energy damage law", ranks)),
-        Damage::Softening(_) => Err(refusal("softening damage laws", ranks)),
+        // The laws decide a bond from its stretch or its pair work, the same bits at both
+        // ends once the ghosts' positions and point states are their owners'.
+        Damage::CriticalStretch(_) | Damage::CriticalEnergy(_) | Damage::Softening(_) => Ok(()),
         Damage::Mixed(_) => Err(refusal("several damage laws", ranks)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deck::build::{build_constitution, build_model};
+    use std::path::Path;
+
+    /// A small plate of `material` (its `[material]` lines) with `extra` deck text.
+    fn deck(material: &str, extra: &str) -> String {
+        format!(
+            r#"version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [4e-3, 2e-3] }}
+spacing = 0.25e-3
+horizon_ratio = 3.0
+[material]
+density = 1000.0
+youngs_modulus = 1e9
+fracture_energy = 100.0
+{material}
+[solver]
+type = "explicit"
+end_time = 1e-6
+{extra}
+"#
+        )
+    }
+
+    /// What a run of `src` on 2 ranks refuses, if anything.
+    fn refused(src: &str, control: &RunControl) -> Option<String> {
+        let ld = LoadedDeck::from_str(src, Path::new("t.toml")).expect("a valid deck");
+        let check = || -> Result<(), RunError> {
+            deck_refusal(&ld, control, 2)?;
+            let model = build_model::<2>(&ld).expect("a model");
+            let (material, rest) = build_constitution(&ld, &model).expect("laws").split();
+            constitution_refusal(&material, &rest, 2)
+        };
+        check().err().map(|e| e.to_string())
+    }
+
+    #[test]
+    fn distributed_models_and_laws_run() {
+        let fresh = RunControl::default();
+        for (material, extra) in [
+            ("type = \"pmb\"", ""),
+            (
+                "type = \"pmb\"\ndamage = { type = \"critical_energy\" }",
+                "",
+            ),
+            (
+                "type = \"pmb\"\ndamage = { type = \"bilinear\", tensile_strength = 1e6 }",
+                "",
+            ),
+            ("type = \"lps\"\npoisson_ratio = 0.3", ""),
+            (
+                "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
+                "",
+            ),
+        ] {
+            assert_eq!(refused(&deck(material, extra), &fresh), None, "{material}");
+        }
+    }
+
+    #[test]
+    fn the_rest_is_refused_by_name() {
+        let lps = "type = \"lps\"\npoisson_ratio = 0.3";
+        let fresh = RunControl::default();
+        let restart = RunControl {
+            restart: true,
+            ..RunControl::default()
+        };
+        for (material, extra, control, name) in [
+            (
+                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
+                "",
+                &fresh,
+                "the correspondence model",
+            ),
+            (lps, "[solver.adaptive]", &fresh, "the adaptive time step"),
+            (lps, "[contact]", &fresh, "contact"),
+            (lps, "", &restart, "a restart"),
+        ] {
+            let message = refused(&deck(material, extra), control).expect("refused");
+            assert!(
+                message.contains(name) && message.contains("not yet distributed"),
+                "{message}"
+            );
+        }
     }
 }
