@@ -25,10 +25,6 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
             settings.quasi_static.is_some(),
             "the quasi-static solver ([solver] quasi_static)",
         ),
-        (
-            settings.adaptive.is_some(),
-            "the adaptive time step ([solver] adaptive)",
-        ),
         (!deck.stages.is_empty(), "a staged run ([[stages]])"),
         (
             deck.contact.is_some() || !deck.impactors.is_empty(),
@@ -148,7 +144,7 @@ end_time = 1e-6
     }
 
     #[test]
-    fn distributed_models_and_laws_run() {
+    fn distributed_models_laws_and_solvers_run() {
         let fresh = RunControl::default();
         for (material, extra) in [
             ("type = \"pmb\"", ""),
@@ -160,7 +156,7 @@ end_time = 1e-6
                 "type = \"pmb\"\ndamage = { type = \"bilinear\", tensile_strength = 1e6 }",
                 "",
             ),
-            ("type = \"lps\"\npoisson_ratio = 0.3", ""),
+            ("type = \"lps\"\npoisson_ratio = 0.3", "[solver.adaptive]"),
             (
                 "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
                 "",
@@ -185,7 +181,6 @@ end_time = 1e-6
                 &fresh,
                 "the correspondence model",
             ),
-            (lps, "[solver.adaptive]", &fresh, "the adaptive time step"),
             (lps, "[contact]", &fresh, "contact"),
             (lps, "", &restart, "a restart"),
         ] {
