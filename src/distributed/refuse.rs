@@ -48,23 +48,16 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
     if let Some((_, feature)) = found {
         return Err(refusal(feature, ranks));
     }
+    // Lattices (with pores), NB-NUG grids, free meshes and point clouds whose nodes share one
+    // horizon (`distributed::share` refuses the others when it builds the families); the
+    // grid's uniformity is agreed over the whole body (`solver::ranks::agreed_uniform`).
     match &deck.discretization {
-        Discretization::Lattice { refine, pores, .. } => {
-            if !refine.is_empty() {
-                return Err(refusal(
-                    "a refined lattice (discretization.refine, dual horizons)",
-                    ranks,
-                ));
-            }
-            if pores.is_some() {
-                return Err(refusal("pores (discretization.pores)", ranks));
-            }
-            Ok(())
-        }
-        Discretization::FreeMesh { .. } => Err(refusal("the free-mesh grid", ranks)),
-        Discretization::Nbnug { .. } => Err(refusal("the NB-NUG grid", ranks)),
-        Discretization::PointCloud { .. } => Err(refusal("a point-cloud grid", ranks)),
+        Discretization::Lattice { refine, .. } if !refine.is_empty() => Err(refusal(
+            "a refined lattice (discretization.refine, dual horizons)",
+            ranks,
+        )),
         Discretization::Gmsh { .. } => Err(refusal("a Gmsh grid", ranks)),
+        _ => Ok(()),
     }
 }
 
@@ -106,6 +99,12 @@ mod tests {
     use crate::deck::build::{build_constitution, build_model};
     use std::path::Path;
 
+    /// The plate's lattice (the `[discretization]` lines).
+    const LATTICE: &str = r#"type = "lattice"
+shape = { type = "rectangle", min = [0.0, 0.0], max = [4e-3, 2e-3] }
+spacing = 0.25e-3
+horizon_ratio = 3.0"#;
+
     /// A small plate of `material` (its `[material]` lines) with `extra` deck text.
     fn deck(material: &str, extra: &str) -> String {
         format!(
@@ -114,10 +113,7 @@ dimension = 2
 plane = "stress"
 thickness = 1e-3
 [discretization]
-type = "lattice"
-shape = {{ type = "rectangle", min = [0.0, 0.0], max = [4e-3, 2e-3] }}
-spacing = 0.25e-3
-horizon_ratio = 3.0
+{LATTICE}
 [material]
 density = 1000.0
 youngs_modulus = 1e9
@@ -164,6 +160,9 @@ end_time = 1e-6
         ] {
             assert_eq!(refused(&deck(material, extra), &fresh), None, "{material}");
         }
+        let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
+        let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
+        assert_eq!(refused(&src, &fresh), None);
     }
 
     #[test]
@@ -189,6 +188,20 @@ end_time = 1e-6
                 message.contains(name) && message.contains("not yet distributed"),
                 "{message}"
             );
+        }
+        let refined = format!(
+            "{LATTICE}\nrefine = [{{ region = {{ type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }}, levels = 1 }}]"
+        );
+        for (grid, name) in [
+            (
+                "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
+                "a Gmsh grid",
+            ),
+            (refined.as_str(), "a refined lattice"),
+        ] {
+            let src = deck(lps, "").replace(LATTICE, grid);
+            let message = refused(&src, &fresh).expect("refused");
+            assert!(message.contains(name), "{message}");
         }
     }
 }

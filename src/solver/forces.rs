@@ -272,13 +272,24 @@ fn map_chunks<J: Send>(items: Vec<J>, job: &(dyn Fn(J) -> u64 + Sync)) -> Vec<u6
 impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     /// Sets up the material (per-node constants from the intact families) and the damage law.
     pub fn new(
-        mut material: M,
+        material: M,
         damage: Damage,
         body: &Body<D>,
         bonds: &Bonds,
         rule: PartialVolume,
     ) -> Result<Self, PointError> {
         let quad = Quadrature::for_body(rule, body, bonds);
+        Self::with_quadrature(material, damage, body, bonds, quad)
+    }
+
+    /// `new` with the bonds' quadrature given.
+    pub fn with_quadrature(
+        mut material: M,
+        damage: Damage,
+        body: &Body<D>,
+        bonds: &Bonds,
+        quad: Quadrature,
+    ) -> Result<Self, PointError> {
         material.setup(body, bonds, &quad)?;
         let n = body.len();
         let chunks = (0..n)

@@ -9,6 +9,7 @@
 //! over nodes are continued from rank to rank in rank order (`Ranks::chain`), which is the
 //! one process's left-to-right order: the same bits for any number of ranks.
 
+use crate::bonds::partial_volume::NodeWeight;
 use crate::math::Vector;
 use crate::state::State;
 use std::sync::Arc;
@@ -140,6 +141,19 @@ impl Halo {
             }
         }
     }
+}
+
+/// Whether the whole body is a uniform grid, from each rank's `local` answer for its owned
+/// nodes and ghosts: the one weight if every rank has it (bitwise: the smallest and largest
+/// over ranks agree), else none. A rank's nodes may all be alike in a body that is not.
+pub fn agreed_uniform(ranks: &dyn Ranks, local: Option<NodeWeight>) -> Option<NodeWeight> {
+    let all = ranks.min_f64(local.is_some() as u8 as f64) == 1.0;
+    let w = local.filter(|_| all)?;
+    let alike = |x: f64| ranks.min_f64(x) == x && ranks.max_f64(x) == x;
+    // Every rank asks the same three questions (each is a collective call).
+    let same = [w.volume, w.half_cell, w.horizon].map(alike);
+    let same = same.iter().all(|&s| s);
+    (ranks.min_f64(same as u8 as f64) == 1.0).then_some(w)
 }
 
 /// Σ of `terms` in the order of one process: this rank's terms (its owned nodes' or

@@ -3,7 +3,7 @@
 
 use super::contact::NodeContact;
 use super::impactor::{Impactor, Impactors};
-use super::ranks::{ordered_fold, ordered_sum, Share};
+use super::ranks::{agreed_uniform, ordered_fold, ordered_sum, Share};
 use super::ForceEngine;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
@@ -116,9 +116,13 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         let history_words = damage.history_words(crate::solver::bond_force::<D, M>());
         let keep_previous = damage.records_work() && !M::CENTRAL;
         let splits_work = damage.splits_work(crate::solver::bond_force::<D, M>());
-        let mut engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
-        let mut dt_stable = engine.stable_time_step(&body, &bonds);
         let share = share.map(Arc::new);
+        let quad = Quadrature::for_body_agreed(rule, &body, &bonds, |uniform| match &share {
+            None => uniform,
+            Some(s) => agreed_uniform(&*s.ranks, uniform),
+        });
+        let mut engine = ForceEngine::with_quadrature(material, damage, &body, &bonds, quad)?;
+        let mut dt_stable = engine.stable_time_step(&body, &bonds);
         if let Some(s) = &share {
             // A ghost has no family here (infinite step): the owners' count.
             dt_stable = s.ranks.min_f64(dt_stable);
