@@ -125,7 +125,20 @@ impl Quadrature {
         body: &crate::body::Body<D>,
         bonds: &super::Bonds,
     ) -> Self {
+        Self::for_body_agreed(rule, body, bonds, |uniform| uniform)
+    }
+
+    /// `for_body` with the grid's uniformity settled by `agree` from this body's: a
+    /// distributed run's ranks take the whole body's, so that each weighs its bonds, and
+    /// picks its bond loops, as one process does.
+    pub fn for_body_agreed<const D: usize>(
+        rule: PartialVolume,
+        body: &crate::body::Body<D>,
+        bonds: &super::Bonds,
+        agree: impl FnOnce(Option<NodeWeight>) -> Option<NodeWeight>,
+    ) -> Self {
         let mut q = Self::new(rule, &body.volumes, &body.cell_sizes, &body.horizons);
+        q.uniform = agree(q.uniform);
         if rule == PartialVolume::Exact {
             let mut lattice = q
                 .uniform

@@ -5,6 +5,7 @@ use super::partition::{bond_weights, ranges};
 use crate::bonds::search::build_bonds_of;
 use crate::bonds::Bonds;
 use crate::deck::build::{build_model_with, Part};
+use crate::deck::schema::MaterialDeck;
 use crate::deck::{DeckError, DeckIssue, LoadedDeck};
 use std::ops::Range;
 
@@ -15,7 +16,8 @@ pub struct RankPlan {
     pub ghosts: usize,
     /// Directed bonds of the owned families.
     pub bonds: usize,
-    /// Bytes the rank sends each step (u, v, y of the nodes its peers have as ghosts).
+    /// Bytes the rank sends each step (u, v, y of the nodes its peers have as ghosts, and
+    /// their dilatation θ under LPS).
     pub halo_bytes: usize,
     /// Owned and ghost nodes at the largest model's bytes per node, plus the bonds.
     pub memory_bytes: usize,
@@ -41,6 +43,9 @@ impl std::fmt::Display for RankPlan {
 /// memory); the halo a rank sends is what the others have of it as ghosts.
 pub fn plan<const D: usize>(ld: &LoadedDeck, ranks: usize) -> Result<Vec<RankPlan>, DeckError> {
     let mut plans = Vec::new();
+    // Words per halo node and step: u, v, y, and the point state a neighbour's half reads.
+    let theta = matches!(ld.deck.material, MaterialDeck::Lps { .. }) as usize;
+    let words = 3 * D + theta;
     build_model_with::<D>(ld, |body, families| {
         let weights = bond_weights(&body, families.rule);
         let Some(ranges) = ranges(&weights, ranks) else {
@@ -71,7 +76,7 @@ pub fn plan<const D: usize>(ld: &LoadedDeck, ranks: usize) -> Result<Vec<RankPla
             ghosts.sort_unstable();
             ghosts.dedup();
             for &g in &ghosts {
-                sent[ranges.partition_point(|q| q.end <= g as usize)] += 3 * D * 8;
+                sent[ranges.partition_point(|q| q.end <= g as usize)] += words * 8;
             }
             plans.push(RankPlan {
                 nodes: r.clone(),

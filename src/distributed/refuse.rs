@@ -25,10 +25,6 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
             settings.quasi_static.is_some(),
             "the quasi-static solver ([solver] quasi_static)",
         ),
-        (
-            settings.adaptive.is_some(),
-            "the adaptive time step ([solver] adaptive)",
-        ),
         (!deck.stages.is_empty(), "a staged run ([[stages]])"),
         (
             deck.contact.is_some() || !deck.impactors.is_empty(),
@@ -52,23 +48,16 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
     if let Some((_, feature)) = found {
         return Err(refusal(feature, ranks));
     }
+    // Lattices (with pores), NB-NUG grids, free meshes and point clouds whose nodes share one
+    // horizon (`distributed::share` refuses the others when it builds the families); the
+    // grid's uniformity is agreed over the whole body (`solver::ranks::agreed_uniform`).
     match &deck.discretization {
-        Discretization::Lattice { refine, pores, .. } => {
-            if !refine.is_empty() {
-                return Err(refusal(
-                    "a refined lattice (discretization.refine, dual horizons)",
-                    ranks,
-                ));
-            }
-            if pores.is_some() {
-                return Err(refusal("pores (discretization.pores)", ranks));
-            }
-            Ok(())
-        }
-        Discretization::FreeMesh { .. } => Err(refusal("the free-mesh grid", ranks)),
-        Discretization::Nbnug { .. } => Err(refusal("the NB-NUG grid", ranks)),
-        Discretization::PointCloud { .. } => Err(refusal("a point-cloud grid", ranks)),
+        Discretization::Lattice { refine, .. } if !refine.is_empty() => Err(refusal(
+            "a refined lattice (discretization.refine, dual horizons)",
+            ranks,
+        )),
         Discretization::Gmsh { .. } => Err(refusal("a Gmsh grid", ranks)),
+        _ => Ok(()),
     }
 }
 
@@ -79,8 +68,7 @@ pub fn constitution_refusal(
     ranks: usize,
 ) -> Result<(), RunError> {
     let model = match material {
-        MaterialChoice::Pmb(_) => None,
-        MaterialChoice::Lps(_) => Some("the LPS model"),
+        MaterialChoice::Pmb(_) | MaterialChoice::Lps(_) => None,
         MaterialChoice::Correspondence(_) => Some("the correspondence model"),
         MaterialChoice::Mixed(_) => Some("several materials"),
     };
@@ -98,9 +86,122 @@ pub fn constitution_refusal(
     }
     use crate::damage::Damage;
     match &rest.damage {
-        Damage::CriticalStretch(_) => Ok(()),
-        Damage::CriticalEnergy(_) => Err(refusal("the critical-energy damage law", ranks)),
-        Damage::Softening(_) => Err(refusal("softening damage laws", ranks)),
+        // The laws decide a bond from its stretch or its pair work, the same bits at both
+        // ends once the ghosts' positions and point states are their owners'.
+        Damage::CriticalStretch(_) | Damage::CriticalEnergy(_) | Damage::Softening(_) => Ok(()),
         Damage::Mixed(_) => Err(refusal("several damage laws", ranks)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deck::build::{build_constitution, build_model};
+    use std::path::Path;
+
+    /// The plate's lattice (the `[discretization]` lines).
+    const LATTICE: &str = r#"type = "lattice"
+shape = { type = "rectangle", min = [0.0, 0.0], max = [4e-3, 2e-3] }
+spacing = 0.25e-3
+horizon_ratio = 3.0"#;
+
+    /// A small plate of `material` (its `[material]` lines) with `extra` deck text.
+    fn deck(material: &str, extra: &str) -> String {
+        format!(
+            r#"version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+[discretization]
+{LATTICE}
+[material]
+density = 1000.0
+youngs_modulus = 1e9
+fracture_energy = 100.0
+{material}
+[solver]
+type = "explicit"
+end_time = 1e-6
+{extra}
+"#
+        )
+    }
+
+    /// What a run of `src` on 2 ranks refuses, if anything.
+    fn refused(src: &str, control: &RunControl) -> Option<String> {
+        let ld = LoadedDeck::from_str(src, Path::new("t.toml")).expect("a valid deck");
+        let check = || -> Result<(), RunError> {
+            deck_refusal(&ld, control, 2)?;
+            let model = build_model::<2>(&ld).expect("a model");
+            let (material, rest) = build_constitution(&ld, &model).expect("laws").split();
+            constitution_refusal(&material, &rest, 2)
+        };
+        check().err().map(|e| e.to_string())
+    }
+
+    #[test]
+    fn distributed_models_laws_and_solvers_run() {
+        let fresh = RunControl::default();
+        for (material, extra) in [
+            ("type = \"pmb\"", ""),
+            (
+                "type = \"pmb\"\ndamage = { type = \"critical_energy\" }",
+                "",
+            ),
+            (
+                "type = \"pmb\"\ndamage = { type = \"bilinear\", tensile_strength = 1e6 }",
+                "",
+            ),
+            ("type = \"lps\"\npoisson_ratio = 0.3", "[solver.adaptive]"),
+            (
+                "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
+                "",
+            ),
+        ] {
+            assert_eq!(refused(&deck(material, extra), &fresh), None, "{material}");
+        }
+        let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
+        let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
+        assert_eq!(refused(&src, &fresh), None);
+    }
+
+    #[test]
+    fn the_rest_is_refused_by_name() {
+        let lps = "type = \"lps\"\npoisson_ratio = 0.3";
+        let fresh = RunControl::default();
+        let restart = RunControl {
+            restart: true,
+            ..RunControl::default()
+        };
+        for (material, extra, control, name) in [
+            (
+                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
+                "",
+                &fresh,
+                "the correspondence model",
+            ),
+            (lps, "[contact]", &fresh, "contact"),
+            (lps, "", &restart, "a restart"),
+        ] {
+            let message = refused(&deck(material, extra), control).expect("refused");
+            assert!(
+                message.contains(name) && message.contains("not yet distributed"),
+                "{message}"
+            );
+        }
+        let refined = format!(
+            "{LATTICE}\nrefine = [{{ region = {{ type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }}, levels = 1 }}]"
+        );
+        for (grid, name) in [
+            (
+                "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
+                "a Gmsh grid",
+            ),
+            (refined.as_str(), "a refined lattice"),
+        ] {
+            let src = deck(lps, "").replace(LATTICE, grid);
+            let message = refused(&src, &fresh).expect("refused");
+            assert!(message.contains(name), "{message}");
+        }
     }
 }

@@ -86,6 +86,7 @@ fn run_dim<const D: usize>(
     constitution_refusal(&material, &rest, size)?;
     match material {
         MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
+        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
         _ => unreachable!("refused above"),
     }
 }
@@ -138,7 +139,7 @@ fn run_model<const D: usize, M: Material<D>>(
             owned,
             halo.ghosts(),
             halo.peers.len(),
-            halo.bytes_sent(3 * D)
+            halo.bytes_sent(3 * D + M::HALO_WORDS)
         );
     }
     let share = Share {
@@ -148,6 +149,7 @@ fn run_model<const D: usize, M: Material<D>>(
         global_nodes,
         halo,
     };
+    let pores = model.pores.clone();
     let (mut sim, report) = prepare_shared(ld, model, material, rest, Some(share))?;
     let report = whole_report::<D, M>(report, &sim, grid, &*ranks);
     // Node 0's density on every rank (the crack tip's Rayleigh speed reads it on rank 0).
@@ -155,7 +157,7 @@ fn run_model<const D: usize, M: Material<D>>(
     let resolved = resolved::resolved_deck(ld)?;
     let origin = crate::checkpoint::Origin::new(&resolved, &ld.file);
     let (attached, whole) = if root {
-        resolved::write_start(ld, &resolved, &report, None, out)?;
+        resolved::write_start(ld, &resolved, &report, pores.as_deref(), out)?;
         let body = whole.expect("rank 0 keeps the whole body");
         let densities = densities.expect("gathered on rank 0");
         let at = (sim.state.step, sim.state.time);

@@ -126,6 +126,15 @@ impl Lps {
         self
     }
 
+    /// The weighted volumes m and their inverses (0 for a node without bonds).
+    fn set_m(&mut self, m: Vec<f64>) {
+        self.inv_m = m
+            .iter()
+            .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
+            .collect();
+        self.m = m;
+    }
+
     /// The constants of the force state, for the vector kernels (uniform horizon, constant
     /// or inverse influence function).
     fn law(&self) -> Option<simd::LpsLaw> {
@@ -166,7 +175,7 @@ impl<const D: usize> Material<D> for Lps {
         bonds: &Bonds,
         quad: &Quadrature,
     ) -> Result<(), PointError> {
-        self.m = (0..body.len())
+        let m = (0..body.len())
             .map(|i| {
                 bonds
                     .family(i)
@@ -178,12 +187,27 @@ impl<const D: usize> Material<D> for Lps {
                     .sum::<f64>()
             })
             .collect();
-        self.inv_m = self
-            .m
-            .iter()
-            .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
-            .collect();
+        self.set_m(m);
         Ok(())
+    }
+
+    const HALO_WORDS: usize = 1;
+
+    #[inline(always)]
+    fn point_words(p: &LpsPoint, out: &mut Vec<f64>) {
+        out.push(p.theta);
+    }
+
+    #[inline(always)]
+    fn point_from_words(p: &mut LpsPoint, words: &[f64]) {
+        p.theta = words[0];
+    }
+
+    /// A ghost's m is its owner's (its family is there).
+    fn share_constants(&mut self, exchange: &mut dyn FnMut(&mut [f64])) {
+        let mut m = std::mem::take(&mut self.m);
+        exchange(&mut m);
+        self.set_m(m);
     }
 
     #[inline(always)]

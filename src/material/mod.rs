@@ -172,6 +172,24 @@ pub trait Material<const D: usize>: Sync + Send {
         unimplemented!("own_half_work of a model without NODE_MATRIX_WORDS")
     }
 
+    /// f64 words of a point state that a distributed run sends each evaluation to the ranks
+    /// that have the node as a ghost: what a neighbour's half of a bond reads (LPS: θ). 0:
+    /// none (bond-based models; a state-based model without them is not distributed).
+    const HALO_WORDS: usize = 0;
+
+    /// Appends the `HALO_WORDS` words of a point state.
+    #[inline(always)]
+    fn point_words(_p: &Self::Point, _out: &mut Vec<f64>) {}
+
+    /// The point state of a ghost from its owner's `HALO_WORDS` words.
+    #[inline(always)]
+    fn point_from_words(_p: &mut Self::Point, _words: &[f64]) {}
+
+    /// A distributed run: `setup`'s per-node constants of the ghosts (computed here from
+    /// their empty rows) replaced by their owners', each array through `exchange`, which sets
+    /// the ghosts' entries of a per-node array.
+    fn share_constants(&mut self, _exchange: &mut dyn FnMut(&mut [f64])) {}
+
     /// Per-node constants that depend on the families (LPS weighted volume m); called once
     /// before the run, with all bonds intact. Fails, naming the node, when a node cannot be
     /// evaluated (e.g. a singular shape tensor).

@@ -112,10 +112,16 @@ impl<const D: usize> AdaptiveDt<D> {
             }
             let saved = self.saved.as_ref().expect("just saved");
             let broken = sim.step()?;
+            // `broken` is every rank's; so is the largest count (a maximum of integers,
+            // exact in any order), and every rank takes the same decision.
             let most = if broken == 0 {
                 0
             } else {
-                most_broken_at_a_node(&sim.bonds, &saved.status, &sim.state.status)
+                let most = most_broken_at_a_node(&sim.bonds, &saved.status, &sim.state.status);
+                match &sim.share {
+                    None => most,
+                    Some(s) => s.ranks.max_f64(most as f64) as u32,
+                }
             };
             if most > s.max_broken_per_node && sim.dt * s.reduce >= s.min_dt {
                 sim.state.clone_from(saved);

@@ -7,6 +7,7 @@
 //! always agree.
 
 use super::dissipation::DissipationTracker;
+use super::ranks::{ordered_sum, Share};
 use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
@@ -44,9 +45,10 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     broke_in_chunk: Vec<u64>,
     /// Mid-step positions of the booking (reused buffer).
     mid_step: Vec<Vector<D>>,
-    /// The other ranks of a distributed run (`solver::ranks`): the halves broken and the
-    /// energy released are summed over every rank.
-    pub ranks: Option<std::sync::Arc<dyn super::ranks::Ranks>>,
+    /// This process's share of a distributed run (`solver::ranks`): the ghosts' point states
+    /// come from their owners, the halves broken and the energy released are summed over
+    /// every rank.
+    pub share: Option<std::sync::Arc<Share>>,
 }
 
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
@@ -270,13 +272,24 @@ fn map_chunks<J: Send>(items: Vec<J>, job: &(dyn Fn(J) -> u64 + Sync)) -> Vec<u6
 impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     /// Sets up the material (per-node constants from the intact families) and the damage law.
     pub fn new(
-        mut material: M,
+        material: M,
         damage: Damage,
         body: &Body<D>,
         bonds: &Bonds,
         rule: PartialVolume,
     ) -> Result<Self, PointError> {
         let quad = Quadrature::for_body(rule, body, bonds);
+        Self::with_quadrature(material, damage, body, bonds, quad)
+    }
+
+    /// `new` with the bonds' quadrature given.
+    pub fn with_quadrature(
+        mut material: M,
+        damage: Damage,
+        body: &Body<D>,
+        bonds: &Bonds,
+        quad: Quadrature,
+    ) -> Result<Self, PointError> {
         material.setup(body, bonds, &quad)?;
         let n = body.len();
         let chunks = (0..n)
@@ -295,7 +308,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             dissipation: DissipationTracker::default(),
             broke_in_chunk: Vec::new(),
             mid_step: Vec::new(),
-            ranks: None,
+            share: None,
         })
     }
 
@@ -329,11 +342,11 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         let mut tracker = std::mem::take(&mut self.dissipation);
         tracker.remember(state);
         let mut broke = self.evaluate(body, bonds, state);
-        if let Some(ranks) = &self.ranks {
+        if let Some(share) = &self.share {
             // Every rank books the release when any rank broke a half (the sum continues
             // through ranks that broke none).
             let local = broke;
-            broke = ranks.sum_u64(local);
+            broke = share.ranks.sum_u64(local);
             state.broken += broke - local;
         }
         if broke > 0 {
@@ -365,13 +378,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     self.node_energy_with(body, bonds, at, record, i)
                 },
             );
-            state.dissipated_damage += match &self.ranks {
-                None => per_chunk.iter().sum(),
-                Some(ranks) => ranks.chain(&mut |before| match before {
-                    None => per_chunk.iter().sum(),
-                    Some(a) => per_chunk.iter().fold(a, |acc, t| acc + t),
-                }),
-            };
+            state.dissipated_damage += ordered_sum(self.share.as_deref(), per_chunk.into_iter());
             self.mid_step = mid_step;
         }
         self.dissipation = tracker;
@@ -612,6 +619,9 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             }));
         }
         state.previous_matrices = previous_matrices;
+        if M::NEEDS_PREPASS {
+            self.exchange_points();
+        }
 
         let (material, points) = (&self.material, &self.points);
         // A two-pass model decided stretch-based failure in its pre-pass.
@@ -745,6 +755,21 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         self.broke_in_chunk = per_chunk;
         state.broken += newly_broken;
         newly_broken
+    }
+
+    /// A distributed run: the ghosts take their owners' point states (θ for LPS), which
+    /// the force pass reads for the neighbour's half of a bond.
+    fn exchange_points(&mut self) {
+        if let Some(s) = &self.share {
+            debug_assert!(M::HALO_WORDS > 0, "a pre-pass model without halo words");
+            s.halo.exchange_items(
+                &*s.ranks,
+                M::HALO_WORDS,
+                &mut self.points,
+                M::point_words,
+                M::point_from_words,
+            );
+        }
     }
 
     /// Split work: decides the bonds of the flagged nodes (per chunk, in node order) from
@@ -948,8 +973,10 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         }
         let hw = self.damage.history_words(bond_force::<D, M>());
         let point = M::Point::default();
-        let per_chunk: Vec<f64> = self
-            .chunks
+        // The chunks of the owned nodes (a distributed run's ghosts follow them).
+        let owned = self.share.as_ref().map_or(body.len(), |s| s.owned);
+        let chunks = &self.chunks[..owned.div_ceil(NODE_CHUNK)];
+        let per_chunk: Vec<f64> = chunks
             .par_iter()
             .map(|nodes| {
                 nodes.clone().fold(0.0, |acc, i| {
@@ -972,7 +999,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                 })
             })
             .collect();
-        state.dissipated_damage + per_chunk.iter().sum::<f64>()
+        state.dissipated_damage + ordered_sum(self.share.as_deref(), per_chunk.into_iter())
     }
 
     /// Total strain energy Σ W_i V_i (J).

@@ -9,6 +9,7 @@
 //! over nodes are continued from rank to rank in rank order (`Ranks::chain`), which is the
 //! one process's left-to-right order: the same bits for any number of ranks.
 
+use crate::bonds::partial_volume::NodeWeight;
 use crate::math::Vector;
 use crate::state::State;
 use std::sync::Arc;
@@ -74,21 +75,60 @@ impl Halo {
     /// what a gather of a neighbour reads (positions; the velocity for the mid-step energy
     /// of a breaking step).
     pub fn exchange<const D: usize>(&self, ranks: &dyn Ranks, state: &mut State<D>) {
-        let words = 3 * D;
-        let send: Vec<Vec<f64>> = self
-            .send
+        let send = self.pack(3 * D, |i, buf| {
+            for v in [&state.u[i], &state.v[i], &state.current[i]] {
+                buf.extend_from_slice(v.as_slice());
+            }
+        });
+        self.receive(ranks, 3 * D, send, |i, w| {
+            state.u[i] = Vector::<D>::from_column_slice(&w[..D]);
+            state.v[i] = Vector::<D>::from_column_slice(&w[D..2 * D]);
+            state.current[i] = Vector::<D>::from_column_slice(&w[2 * D..]);
+        });
+    }
+
+    /// Gives the ghosts' entries of a per-node array their owners' values.
+    pub fn exchange_values(&self, ranks: &dyn Ranks, values: &mut [f64]) {
+        self.exchange_items(ranks, 1, values, |v, buf| buf.push(*v), |v, w| *v = w[0]);
+    }
+
+    /// Gives the ghosts' entries of a per-node array their owners', `words` f64 per node:
+    /// `pack(item, buf)` appends an owned item's words, `unpack(item, words)` sets a ghost's.
+    pub fn exchange_items<T>(
+        &self,
+        ranks: &dyn Ranks,
+        words: usize,
+        items: &mut [T],
+        pack: impl Fn(&T, &mut Vec<f64>),
+        unpack: impl Fn(&mut T, &[f64]),
+    ) {
+        let send = self.pack(words, |i, buf| pack(&items[i], buf));
+        self.receive(ranks, words, send, |i, w| unpack(&mut items[i], w));
+    }
+
+    /// Each peer's buffer of the owned nodes it has as ghosts.
+    fn pack(&self, words: usize, pack: impl Fn(usize, &mut Vec<f64>)) -> Vec<Vec<f64>> {
+        self.send
             .iter()
             .map(|nodes| {
                 let mut buf = Vec::with_capacity(nodes.len() * words);
                 for &i in nodes {
-                    let i = i as usize;
-                    for v in [&state.u[i], &state.v[i], &state.current[i]] {
-                        buf.extend_from_slice(v.as_slice());
-                    }
+                    pack(i as usize, &mut buf);
                 }
+                debug_assert_eq!(buf.len(), nodes.len() * words);
                 buf
             })
-            .collect();
+            .collect()
+    }
+
+    /// Swaps `send` with the peers and hands each ghost its words.
+    fn receive(
+        &self,
+        ranks: &dyn Ranks,
+        words: usize,
+        send: Vec<Vec<f64>>,
+        mut unpack: impl FnMut(usize, &[f64]),
+    ) {
         let mut recv: Vec<Vec<f64>> = self
             .recv
             .iter()
@@ -97,13 +137,23 @@ impl Halo {
         ranks.swap(&self.peers, &send, &mut recv);
         for (nodes, buf) in self.recv.iter().zip(&recv) {
             for (&i, w) in nodes.iter().zip(buf.chunks_exact(words)) {
-                let i = i as usize;
-                state.u[i] = Vector::<D>::from_column_slice(&w[..D]);
-                state.v[i] = Vector::<D>::from_column_slice(&w[D..2 * D]);
-                state.current[i] = Vector::<D>::from_column_slice(&w[2 * D..]);
+                unpack(i as usize, w);
             }
         }
     }
+}
+
+/// Whether the whole body is a uniform grid, from each rank's `local` answer for its owned
+/// nodes and ghosts: the one weight if every rank has it (bitwise: the smallest and largest
+/// over ranks agree), else none. A rank's nodes may all be alike in a body that is not.
+pub fn agreed_uniform(ranks: &dyn Ranks, local: Option<NodeWeight>) -> Option<NodeWeight> {
+    let all = ranks.min_f64(local.is_some() as u8 as f64) == 1.0;
+    let w = local.filter(|_| all)?;
+    let alike = |x: f64| ranks.min_f64(x) == x && ranks.max_f64(x) == x;
+    // Every rank asks the same three questions (each is a collective call).
+    let same = [w.volume, w.half_cell, w.horizon].map(alike);
+    let same = same.iter().all(|&s| s);
+    (ranks.min_f64(same as u8 as f64) == 1.0).then_some(w)
 }
 
 /// Σ of `terms` in the order of one process: this rank's terms (its owned nodes' or

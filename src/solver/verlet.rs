@@ -3,7 +3,7 @@
 
 use super::contact::NodeContact;
 use super::impactor::{Impactor, Impactors};
-use super::ranks::{ordered_fold, ordered_sum, Share};
+use super::ranks::{agreed_uniform, ordered_fold, ordered_sum, Share};
 use super::ForceEngine;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
@@ -14,6 +14,7 @@ use crate::material::{Material, PointError};
 use crate::math::Vector;
 use crate::state::State;
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A run that cannot continue, with the diagnosis.
@@ -68,7 +69,7 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     constrained: Vec<(usize, usize)>,
     pub(super) constrained_mask: Vec<[bool; 3]>,
     /// This process's share of a distributed run (`None`: the whole body, one process).
-    pub share: Option<Share>,
+    pub share: Option<Arc<Share>>,
 }
 
 impl<const D: usize, M: Material<D>> Simulation<D, M> {
@@ -115,12 +116,20 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
         let history_words = damage.history_words(crate::solver::bond_force::<D, M>());
         let keep_previous = damage.records_work() && !M::CENTRAL;
         let splits_work = damage.splits_work(crate::solver::bond_force::<D, M>());
-        let mut engine = ForceEngine::new(material, damage, &body, &bonds, rule)?;
+        let share = share.map(Arc::new);
+        let quad = Quadrature::for_body_agreed(rule, &body, &bonds, |uniform| match &share {
+            None => uniform,
+            Some(s) => agreed_uniform(&*s.ranks, uniform),
+        });
+        let mut engine = ForceEngine::with_quadrature(material, damage, &body, &bonds, quad)?;
         let mut dt_stable = engine.stable_time_step(&body, &bonds);
         if let Some(s) = &share {
             // A ghost has no family here (infinite step): the owners' count.
             dt_stable = s.ranks.min_f64(dt_stable);
-            engine.ranks = Some(s.ranks.clone());
+            engine
+                .material
+                .share_constants(&mut |values| s.halo.exchange_values(&*s.ranks, values));
+            engine.share = Some(s.clone());
         }
         let densities = (0..body.len())
             .map(|i| engine.material.density(i))
@@ -182,7 +191,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
 
     /// The nodes this process owns: local 0..owned (all, in one process).
     pub fn owned(&self) -> usize {
-        self.share.as_ref().map_or(self.body.len(), |s| s.owned)
+        self.share.as_deref().map_or(self.body.len(), |s| s.owned)
     }
 
     /// A distributed run's ghosts take their owners' displacements, velocities and
@@ -214,7 +223,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             .zip(&self.body.volumes)
             .zip(&self.densities)
             .map(|((v, vol), rho)| rho * vol * self.loading.damping * v.norm_squared());
-        ordered_sum(self.share.as_ref(), terms)
+        ordered_sum(self.share.as_deref(), terms)
     }
 
     /// Re-evaluates forces (and body forces) at the current state; call it after changing
@@ -312,7 +321,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
                 0.5 * self.densities[i] * self.body.volumes[i] * (v1 * v1 - v0 * v0)
                     - 0.5 * (f0 + f1) * (u1 - u0)
             });
-        let work = ordered_fold(self.share.as_ref(), work, terms);
+        let work = ordered_fold(self.share.as_deref(), work, terms);
         self.state.external_work += work;
         self.state.dissipated_viscous += dissipated;
         self.state.time = t1;
@@ -352,7 +361,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
                         * (self.state.u[i][k] - u0[k])
                 })
             });
-        ordered_fold(self.share.as_ref(), 0.0, terms)
+        ordered_fold(self.share.as_deref(), 0.0, terms)
     }
 
     /// Checks every node for a non-finite displacement, velocity or force; names the first.
@@ -369,7 +378,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
     }
 
     fn first_non_finite(&self) -> Result<(), StepError> {
-        let first = self.share.as_ref().map_or(0, |s| s.first);
+        let first = self.share.as_deref().map_or(0, |s| s.first);
         for i in 0..self.owned() {
             for (quantity, v) in [
                 ("displacement", &self.state.u[i]),

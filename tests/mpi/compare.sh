@@ -9,7 +9,9 @@ cd "$(dirname "$0")/../.."
 bin=${PERIDYN:-target/release/peridyn}
 ranks=${RANKS:-"2 3"}
 if [ $# -eq 0 ]; then
-  set -- tests/mpi/pmb_notched.toml tests/mpi/pmb_plate_3d.toml
+  set -- tests/mpi/pmb_notched.toml tests/mpi/pmb_plate_3d.toml tests/mpi/lps_energy_notched.toml \
+    tests/mpi/pmb_bilinear_notched.toml tests/mpi/pmb_energy_adaptive.toml tests/mpi/pmb_nbnug_pores.toml \
+    tests/mpi/lps_energy_free_mesh.toml tests/mpi/pmb_point_cloud.toml
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
