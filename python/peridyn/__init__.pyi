@@ -202,7 +202,9 @@ def run(
     restart: bool = False,
 ) -> Dict[str, Any]:
     """Runs a deck as `peridyn run DECK -o OUT_DIR` does, writing the same files; returns
-    the summary (report, wall_seconds, broken_bonds, energies, out_dir, text)."""
+    the summary (report, wall_seconds, broken_bonds, energies, out_dir, text). Ctrl-C stops
+    it after the step in progress with KeyboardInterrupt, its files finished up to that
+    step (no summary.txt)."""
 
 def study(
     path: Union[str, "os.PathLike[str]"],

@@ -14,6 +14,8 @@ use crate::observe::{Observer, StageStart, StepView};
 use crate::solver::Fields;
 use crate::solver::{AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation};
 use crate::state::State;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Drives the whole run: the deck's stages, or its one stage.
@@ -492,6 +494,8 @@ pub(crate) struct Watch<'a, const D: usize> {
     observers: &'a mut [Box<dyn Observer<D>>],
     checkpoints: Option<Checkpoints>,
     stop_after: Option<u64>,
+    /// Set from elsewhere (Ctrl-C in Python) to stop after the step in progress.
+    interrupt: Option<Arc<AtomicBool>>,
     at: Position<D>,
     /// Where the observers' view comes from when not from the simulation itself.
     source: Option<&'a mut dyn ViewSource<D>>,
@@ -529,6 +533,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             observers,
             checkpoints,
             stop_after,
+            interrupt: None,
             at: Position::new(resume, staged),
             source: None,
         }
@@ -541,6 +546,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             observers,
             checkpoints: None,
             stop_after: None,
+            interrupt: None,
             at,
             source: None,
         }
@@ -554,6 +560,12 @@ impl<'a, const D: usize> Watch<'a, D> {
     /// The observers see the steps through `source`.
     pub(crate) fn with_source(mut self, source: &'a mut dyn ViewSource<D>) -> Self {
         self.source = Some(source);
+        self
+    }
+
+    /// The run stops after the step in progress once `flag` is set.
+    pub(crate) fn with_interrupt(mut self, flag: Option<Arc<AtomicBool>>) -> Self {
+        self.interrupt = flag;
         self
     }
 
@@ -598,7 +610,11 @@ impl<'a, const D: usize> Watch<'a, D> {
             sim.counters.observe += started.elapsed();
         }
         match self.stop_after {
-            Some(n) if step >= n && !last => Err(RunError::Stopped(step)),
+            Some(n) if step >= n && !last => return Err(RunError::Stopped(step)),
+            _ => {}
+        }
+        match &self.interrupt {
+            Some(flag) if !last && flag.load(Ordering::Relaxed) => Err(RunError::Interrupted(step)),
             _ => Ok(()),
         }
     }
