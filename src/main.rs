@@ -253,6 +253,7 @@ fn main() -> ExitCode {
             let control = RunControl {
                 restart: restart.is_some(),
                 stop_after_step,
+                ..RunControl::default()
             };
             let code = run_distributed(&ld, &opts, &control, ranks);
             drop(universe);
@@ -286,6 +287,7 @@ fn main() -> ExitCode {
                 &RunControl {
                     restart: restart.is_some(),
                     stop_after_step,
+                    ..RunControl::default()
                 },
             )
             .map_err(|e| e.to_string())?;

@@ -3,25 +3,29 @@
 //! its node data read in place, its history kept in memory with the columns of `history.csv`,
 //! loads changed between steps, snapshots and checkpoints written when asked.
 //!
-//! One explicit stage at a fixed time step: a quasi-static, adaptive or staged deck runs
-//! through `run::run` instead (its drivers live inside `run`).
+//! Every deck `run` runs steps here, through `run`'s own stage loop (`run::stages::Course`):
+//! a step is one committed step of it — an explicit step (of the adaptive dt's size with
+//! `[solver.adaptive]`), or a quasi-static load step (each committed piece of one split
+//! because it broke too many bonds) — and a staged deck's steps cross its stages as `run`'s do.
 
-use crate::checkpoint::{DriverState, Origin};
+use crate::checkpoint::Origin;
 use crate::deck::build::{build_constitution, build_model, MaterialChoice};
-use crate::deck::solver_settings::solver_settings;
-use crate::deck::{DeckIssue, LoadedDeck};
-use crate::loading::{BoundaryCondition, Kinematic, TimeFunction};
+use crate::deck::solver_settings::{solver_settings, SolverSettings};
+use crate::deck::stages::{stage_name, StagePlan};
+use crate::deck::LoadedDeck;
+use crate::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
 use crate::material::Material;
 use crate::math::Vector;
 use crate::observe::history::History;
 use crate::observe::snapshots::Snapshots;
-use crate::observe::{Observer, StepView};
-use crate::run::observers::opening_nodes;
+use crate::observe::{Observer, StageStart, StepView};
+use crate::run::observers::history;
 use crate::run::resolved::resolved_deck;
-use crate::run::stages::energy_given;
+use crate::run::stages::{Course, Position, Watch};
 use crate::run::{prepare, ModelReport, RunError};
 use crate::solver::{Fields, Simulation};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
 /// Per-node vectors a session lends (D values per node, node after node).
@@ -44,6 +48,8 @@ pub enum Target {
     Step(u64),
     /// Until the time reaches this (s), within a billionth of a step.
     Time(f64),
+    /// To the end of the deck's last stage.
+    End,
 }
 
 /// What a session reports besides the node data.
@@ -64,6 +70,8 @@ trait Driver: Send {
     fn time(&self) -> f64;
     fn step(&self) -> u64;
     fn dt(&self) -> f64;
+    fn done(&self) -> bool;
+    fn stage(&self) -> (usize, &str);
     fn advance(&mut self, target: Target, deadline: Instant) -> Result<bool, RunError>;
     fn vectors(&self, which: NodeVectors) -> &[f64];
     fn volumes(&self) -> &[f64];
@@ -72,7 +80,7 @@ trait Driver: Send {
     fn damage(&self) -> Vec<f64>;
     fn energy_density(&self) -> Vec<f64>;
     fn energies(&self) -> Energies;
-    fn history(&self) -> (&[String], &[Vec<f64>]);
+    fn history(&self) -> (Vec<String>, Vec<Vec<f64>>);
     fn prescribe(
         &mut self,
         set: &str,
@@ -102,24 +110,8 @@ pub struct Session {
 
 impl Session {
     /// Builds the deck's model on `threads` worker threads (`None`: all cores), ready to step
-    /// from step 0. Refuses decks that are not one explicit stage at a fixed time step.
+    /// from step 0.
     pub fn new(ld: &LoadedDeck, threads: Option<usize>) -> Result<Self, RunError> {
-        let settings = solver_settings(&ld.deck);
-        let refuse = |key: &str, what: &str| {
-            RunError::Deck(ld.locate(vec![DeckIssue::new(
-                key,
-                format!("{what}: a simulation stepped from Python is one explicit stage at a fixed time step; run this deck whole with peridyn.run(deck, out_dir)"),
-            )]))
-        };
-        if settings.quasi_static.is_some() {
-            return Err(refuse("solver.type", "a quasi-static deck"));
-        }
-        if settings.adaptive.is_some() {
-            return Err(refuse("solver.adaptive", "an adaptive time step"));
-        }
-        if !ld.deck.stages.is_empty() {
-            return Err(refuse("stages", "a staged deck"));
-        }
         let pool = match threads {
             None => None,
             Some(n) => Some(
@@ -173,13 +165,24 @@ impl Session {
     pub fn step(&self) -> u64 {
         self.driver.step()
     }
-    /// Time step (s).
+    /// Time step (s) of the next step: the adaptive controller's next try with
+    /// `[solver.adaptive]`, the load increment (pseudo-time) of a quasi-static stage.
     pub fn dt(&self) -> f64 {
         self.driver.dt()
     }
-    /// The deck's steps: `Target::Step(session.steps())` is the end of the run.
+    /// The deck's steps (a staged deck's: the sum of its stages'; with an adaptive time
+    /// step, the estimate from its first dt). `done` says when the run is over.
     pub fn steps(&self) -> u64 {
         self.report.steps
+    }
+    /// Whether the deck's last step is done.
+    pub fn done(&self) -> bool {
+        self.driver.done()
+    }
+    /// The stage of the last step (0: the deck's own) and its name (the deck's, or its
+    /// number from 1).
+    pub fn stage(&self) -> (usize, &str) {
+        self.driver.stage()
     }
 
     /// Per-node vectors in place: `nodes × dimension` values, node after node. The buffer
@@ -211,8 +214,8 @@ impl Session {
         self.on_pool(|d| d.energies())
     }
     /// The history so far: the columns of `history.csv` and its rows (step 0, every
-    /// `history_interval` steps and the deck's last step).
-    pub fn history(&self) -> (&[String], &[Vec<f64>]) {
+    /// `history_interval` steps, each stage's last step and the deck's last step), copied.
+    pub fn history(&self) -> (Vec<String>, Vec<Vec<f64>>) {
         self.driver.history()
     }
 
@@ -256,99 +259,155 @@ impl Session {
         self.driver.save_checkpoint(path)
     }
 
-    /// Continues from a checkpoint written by this deck (by a session or by `peridyn run`).
+    /// Continues from a checkpoint written by this deck (by a session or by `peridyn run`),
+    /// in the stage it was written in, as `peridyn run --restart` does.
     pub fn load_checkpoint(&mut self, path: &Path) -> Result<(), RunError> {
         self.on_pool(|d| d.load_checkpoint(path))
     }
 }
 
 fn build_dim<const D: usize>(ld: &LoadedDeck) -> Result<(Box<dyn Driver>, ModelReport), RunError> {
-    let model = build_model::<D>(ld)?;
+    let mut model = build_model::<D>(ld)?;
+    let plans = std::mem::take(&mut model.stages);
     let c = build_constitution(ld, &model)?;
     let (material, rest) = c.split();
     Ok(match material {
-        MaterialChoice::Pmb(m) => Stepper::boxed(ld, prepare(ld, model, m, rest)?)?,
-        MaterialChoice::Lps(m) => Stepper::boxed(ld, prepare(ld, model, m, rest)?)?,
-        MaterialChoice::Correspondence(m) => Stepper::boxed(ld, prepare(ld, model, m, rest)?)?,
+        MaterialChoice::Pmb(m) => Stepper::boxed(ld, plans, prepare(ld, model, m, rest)?)?,
+        MaterialChoice::Lps(m) => Stepper::boxed(ld, plans, prepare(ld, model, m, rest)?)?,
+        MaterialChoice::Correspondence(m) => {
+            Stepper::boxed(ld, plans, prepare(ld, model, m, rest)?)?
+        }
         MaterialChoice::Mixed(m) => match m.into_central() {
-            Ok(m) => Stepper::boxed(ld, prepare(ld, model, m, rest)?)?,
-            Err(m) => Stepper::boxed(ld, prepare(ld, model, m, rest)?)?,
+            Ok(m) => Stepper::boxed(ld, plans, prepare(ld, model, m, rest)?)?,
+            Err(m) => Stepper::boxed(ld, plans, prepare(ld, model, m, rest)?)?,
         },
     })
 }
 
 struct Stepper<const D: usize, M: Material<D>> {
     sim: Simulation<D, M>,
-    history: History,
-    /// The deck's steps (the run's last step is always recorded).
-    steps: u64,
-    /// The energy given to the run, which `check_energy` measures blow-ups against.
-    given: (f64, f64),
+    /// The history, held in memory (its empty path is never written), lent to each call's
+    /// watch.
+    history: Arc<Mutex<History>>,
+    /// `run`'s stages and where the run is in them.
+    course: Course<D>,
+    at: Position<D>,
+    /// What a checkpoint's run starts again from.
+    start: Start<D>,
+    /// Each stage's name.
+    names: Vec<String>,
     origin: Origin,
     output: crate::deck::schema::OutputDeck,
     title: String,
     snapshots: Option<(PathBuf, Snapshots)>,
 }
 
+/// The run as built: a checkpoint is continued from it as `peridyn run --restart` continues
+/// one from a freshly built run.
+struct Start<const D: usize> {
+    first: SolverSettings,
+    plans: Vec<StagePlan<D>>,
+    report: ModelReport,
+    dt: f64,
+    no_fail: Vec<bool>,
+    loading: Loading<D>,
+    /// The first stage's steps between history rows.
+    history_interval: u64,
+}
+
+impl<const D: usize> Start<D> {
+    fn staged(&self) -> bool {
+        !self.plans.is_empty()
+    }
+}
+
+/// The session's history as one of a run's observers: in memory, nothing to finish.
+struct Shared(Arc<Mutex<History>>);
+
+fn locked(h: &Mutex<History>) -> MutexGuard<'_, History> {
+    h.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl<const D: usize> Observer<D> for Shared {
+    fn wants(&self, step: u64, last: bool) -> bool {
+        Observer::<D>::wants(&*locked(&self.0), step, last)
+    }
+    fn observe(&mut self, view: &StepView<D>) -> std::io::Result<()> {
+        locked(&self.0).observe(view)
+    }
+    fn begin_stage(&mut self, stage: &StageStart) {
+        Observer::<D>::begin_stage(&mut *locked(&self.0), stage)
+    }
+}
+
 impl<const D: usize, M: Material<D> + 'static> Stepper<D, M> {
     fn boxed(
         ld: &LoadedDeck,
+        plans: Vec<StagePlan<D>>,
         (sim, report): (Simulation<D, M>, ModelReport),
     ) -> Result<(Box<dyn Driver>, ModelReport), RunError>
     where
         Simulation<D, M>: Send,
     {
         let deck = &ld.deck;
-        let sets: Vec<(String, Vec<u32>)> = sim
-            .body
-            .node_sets
-            .iter()
-            .map(|(k, v)| (k.clone(), v.clone()))
-            .collect();
-        let every = match deck.history_interval() {
-            0 => u64::MAX,
-            k => k,
+        let staged = !plans.is_empty();
+        let history = history::<D>(deck, &sim.body, staged, Path::new(""));
+        let start = Start {
+            first: solver_settings(deck),
+            plans,
+            report: report.clone(),
+            dt: sim.dt,
+            no_fail: sim.body.no_fail.clone(),
+            loading: sim.loading.clone(),
+            history_interval: match deck.history_interval() {
+                0 => u64::MAX,
+                k => k,
+            },
         };
-        // Held in memory only: an empty path is never written.
-        let mut history = History::new::<D>(Path::new(""), every, &sets)
-            .with_openings(&opening_nodes(&sim.body, &deck.output.openings));
-        if deck.contact.is_some() || !deck.impactors.is_empty() {
-            let names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
-            history = history.with_contact::<D>(&names);
-        }
-        let title = ld.title();
         let mut stepper = Stepper {
-            given: energy_given(&sim),
+            course: Course::new(start.first.clone(), &report, start.plans.clone()),
+            at: Position::new(None, staged),
+            names: (0..=start.plans.len())
+                .map(|k| stage_name(deck, k))
+                .collect(),
+            start,
             sim,
-            history,
-            steps: report.steps,
+            history: Arc::new(Mutex::new(history)),
             origin: Origin::new(&resolved_deck(ld)?, &ld.file),
             output: deck.output.clone(),
-            title,
+            title: ld.title(),
             snapshots: None,
         };
-        stepper.record()?;
+        // The first stage starts: step 0 joins the history.
+        stepper.watched(|course, sim, watch| course.start(sim, watch))?;
         Ok((Box::new(stepper), report))
     }
 }
 
 impl<const D: usize, M: Material<D>> Stepper<D, M> {
-    /// Adds the history row of the step just committed, when it is due.
-    fn record(&mut self) -> Result<(), RunError> {
-        let step = self.sim.state.step;
-        let last = step == self.steps;
-        if Observer::<D>::wants(&self.history, step, last) {
-            let view = StepView::new(&self.sim as &dyn Fields<D>, last);
-            Observer::<D>::observe(&mut self.history, &view)?;
-        }
-        Ok(())
+    /// Runs `f` on the course with a watch whose one observer is the history, at the
+    /// position the last call left.
+    fn watched<T>(
+        &mut self,
+        f: impl FnOnce(&mut Course<D>, &mut Simulation<D, M>, &mut Watch<D>) -> Result<T, RunError>,
+    ) -> Result<T, RunError> {
+        let mut observers: Vec<Box<dyn Observer<D>>> = vec![Box::new(Shared(self.history.clone()))];
+        let mut watch = Watch::at(&mut observers, std::mem::take(&mut self.at));
+        let result = f(&mut self.course, &mut self.sim, &mut watch);
+        self.at = watch.position();
+        result
     }
+}
 
-    fn reached(&self, target: Target) -> bool {
-        match target {
-            Target::Step(n) => self.sim.state.step >= n,
-            Target::Time(t) => t - self.sim.state.time <= 1e-9 * self.sim.dt,
-        }
+fn reached<const D: usize, M: Material<D>>(
+    course: &Course<D>,
+    sim: &Simulation<D, M>,
+    target: Target,
+) -> bool {
+    match target {
+        Target::Step(n) => sim.state.step >= n,
+        Target::Time(t) => t - sim.state.time <= 1e-9 * sim.dt,
+        Target::End => course.done(sim),
     }
 }
 
@@ -371,26 +430,26 @@ where
     fn dt(&self) -> f64 {
         self.sim.dt
     }
+    fn done(&self) -> bool {
+        self.course.done(&self.sim)
+    }
+    fn stage(&self) -> (usize, &str) {
+        let k = self.at.stage();
+        (k, &self.names[k])
+    }
 
-    /// `run::explicit_loop`'s steps and guards: the finiteness check every 100 steps and the
-    /// energy check (a pass over the bonds) every 10, by the run's step count, so pieces
-    /// check what one call does and a loop of single steps pays for no extra pass.
+    /// `run`'s own steps, guards and stage changes, one committed step at a time (the
+    /// guards count from the run's start, so pieces check what one call does).
     fn advance(&mut self, target: Target, deadline: Instant) -> Result<bool, RunError> {
-        while !self.reached(target) {
-            self.sim.step()?;
-            let k = self.sim.state.step;
-            if k.is_multiple_of(100) || k == self.steps {
-                self.sim.check_finite()?;
+        self.watched(|course, sim, watch| {
+            while !reached(course, sim, target) {
+                if !course.advance(sim, watch)? || Instant::now() >= deadline {
+                    break;
+                }
             }
-            if k.is_multiple_of(10) || k == self.steps {
-                self.sim.check_energy(self.given)?;
-            }
-            self.record()?;
-            if Instant::now() >= deadline {
-                break;
-            }
-        }
-        Ok(self.reached(target))
+            Ok(())
+        })?;
+        Ok(reached(&self.course, &self.sim, target) || self.course.done(&self.sim))
     }
 
     fn vectors(&self, which: NodeVectors) -> &[f64] {
@@ -431,8 +490,9 @@ where
             broken_bonds: self.sim.state.broken / 2,
         }
     }
-    fn history(&self) -> (&[String], &[Vec<f64>]) {
-        (self.history.header(), self.history.rows())
+    fn history(&self) -> (Vec<String>, Vec<Vec<f64>>) {
+        let h = locked(&self.history);
+        (h.header().to_vec(), h.rows().to_vec())
     }
 
     fn prescribe(
@@ -525,7 +585,7 @@ where
             self.sim.refresh_forces()?;
         }
         // The energy put in by hand is the run's to keep.
-        self.given = energy_given(&self.sim);
+        self.course.rebase(&self.sim);
         Ok(())
     }
 
@@ -546,11 +606,7 @@ where
     }
 
     fn save_checkpoint(&self, path: &Path) -> Result<(), RunError> {
-        let driver = DriverState {
-            next_dt: self.sim.dt,
-            impactors: self.sim.impactors.states(),
-            ..DriverState::default()
-        };
+        let driver = self.course.driver_state(&self.sim, &self.at);
         crate::checkpoint::write(path, &self.origin, &self.sim.state, &driver)?;
         Ok(())
     }
@@ -559,18 +615,26 @@ where
         // Restored into a copy first: a refused checkpoint leaves the simulation as it was.
         let mut state = self.sim.state.clone();
         let driver = crate::checkpoint::restore(path, &self.origin, &mut state)?;
-        if driver.stage != 0 {
-            return Err(RunError::Io(std::io::Error::other(format!(
-                "{} was written in stage {} of a staged run",
-                path.display(),
-                driver.stage
-            ))));
-        }
         // Into the arrays already there, which the views read.
         self.sim.state.clone_from(&state);
         self.sim.impactors.restore(&driver.impactors);
-        self.given = energy_given(&self.sim);
-        Ok(())
+        // The run as built, continued in the checkpoint's stage as `run --restart` does;
+        // an unstaged deck keeps the conditions Python prescribed.
+        let s = &self.start;
+        self.sim.dt = s.dt;
+        self.sim.body.no_fail.clone_from(&s.no_fail);
+        if s.staged() {
+            self.sim.replace_loading(s.loading.clone());
+            // The history's stage column and interval back at the first stage's.
+            let first = StageStart {
+                index: 0,
+                history_interval: s.history_interval,
+            };
+            Observer::<D>::begin_stage(&mut *locked(&self.history), &first);
+        }
+        self.course = Course::new(s.first.clone(), &s.report, s.plans.clone());
+        self.at = Position::new(Some(driver), s.staged());
+        self.watched(|course, sim, watch| course.start(sim, watch))
     }
 }
 

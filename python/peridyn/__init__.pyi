@@ -77,8 +77,10 @@ class Deck:
         """Builds a simulation of this deck."""
 
 class Simulation:
-    """A simulation built from a deck and stepped from Python (one explicit stage at a
-    fixed time step; other decks run whole with `peridyn.run`).
+    """A simulation built from a deck and stepped from Python: any deck `peridyn run` runs,
+    one step being one committed step of its run (an explicit step, of the adaptive dt's
+    size with `[solver.adaptive]`; a quasi-static load step; a staged deck's steps cross its
+    stages as the run's do).
 
     `positions`, `displacement`, `velocity`, `force`, `volume` and `block` are read-only
     views of the simulation's own arrays (no copy; they follow the simulation as it steps
@@ -105,21 +107,32 @@ class Simulation:
         """Steps taken."""
     @property
     def dt(self) -> float:
-        """Time step (s)."""
+        """Time step (s) of the next step: the adaptive controller's next try with
+        `[solver.adaptive]`; the load increment (pseudo-time) in a quasi-static stage."""
     @property
     def steps(self) -> int:
-        """The deck's number of steps (its end)."""
+        """The deck's number of steps: load steps of a quasi-static deck, the sum of a
+        staged deck's stages, an estimate with an adaptive time step (see `done`)."""
     @property
     def end_time(self) -> float:
-        """The deck's end time (s)."""
+        """The deck's end time (s; quasi-static: pseudo-time; staged: the stages' sum)."""
     @property
     def done(self) -> bool:
         """Whether the deck's last step is done."""
+    @property
+    def stage(self) -> int:
+        """The stage of the last step: 0 for the deck's own (and in an unstaged deck), k
+        for `[[stages]]` k − 1."""
+    @property
+    def stage_name(self) -> str:
+        """The name of the stage of the last step (the deck's, or its number from 1)."""
     def step(self, n: int = 1) -> int:
-        """Takes `n` steps (the GIL released; Ctrl-C stops between steps with
-        KeyboardInterrupt). Returns the step count."""
+        """Takes `n` steps, or fewer at the deck's end (the GIL released; Ctrl-C stops
+        between steps with KeyboardInterrupt). A quasi-static step is one load step (each
+        committed piece of a split one). Returns the step count."""
     def run(self, until: Optional[float] = None) -> int:
-        """Steps to the deck's end, or to time `until` (s); returns the step count."""
+        """Steps to the deck's end (its last stage's), or to the first step at or past time
+        `until` (s); returns the step count."""
     @property
     def positions(self) -> npt.NDArray[np.float64]:
         """Reference positions x (m), (nodes, dimension): a read-only view."""
@@ -150,9 +163,11 @@ class Simulation:
         """kinetic_energy, strain_energy, external_work, damage_dissipation (J) and
         broken_bonds now."""
     def history(self) -> Dict[str, npt.NDArray[np.float64]]:
-        """The history so far with the columns of `history.csv` (copies)."""
+        """The history so far with the columns of `history.csv` (copies), rows where
+        `history.csv` has them (a quasi-static deck: one per load step)."""
     def history_frame(self) -> Any:
-        """The history as a pandas DataFrame (needs pandas)."""
+        """The history as a pandas DataFrame, one column per `history()` key (needs pandas:
+        `ImportError` otherwise)."""
     def prescribe(self, set: str, kind: str, component: Component, value: float) -> None:
         """Prescribes a constant displacement (m) or velocity (m/s) (`kind`) on one
         component of a node set from the next step on, replacing the deck's condition there."""
@@ -169,7 +184,8 @@ class Simulation:
     def save_checkpoint(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Writes a checkpoint of the current state (`peridyn run`'s format)."""
     def load_checkpoint(self, path: Union[str, "os.PathLike[str]"]) -> None:
-        """Continues from a checkpoint of this deck (from `save_checkpoint` or `peridyn run`)."""
+        """Continues from a checkpoint of this deck (from `save_checkpoint` or `peridyn run`)
+        in the stage it was written in, as `peridyn run --restart` does."""
 
 def load(source: DeckSource) -> Deck:
     """Loads and validates a deck from a path, TOML text (a str holding a newline) or a
@@ -186,7 +202,9 @@ def run(
     restart: bool = False,
 ) -> Dict[str, Any]:
     """Runs a deck as `peridyn run DECK -o OUT_DIR` does, writing the same files; returns
-    the summary (report, wall_seconds, broken_bonds, energies, out_dir, text)."""
+    the summary (report, wall_seconds, broken_bonds, energies, out_dir, text). Ctrl-C stops
+    it after the step in progress with KeyboardInterrupt, its files finished up to that
+    step (no summary.txt)."""
 
 def study(
     path: Union[str, "os.PathLike[str]"],

@@ -16,6 +16,8 @@ use peridyn::study_run::{run_study, StudyOptions};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// A validated deck: its TOML text and the file it came from (which names it in messages
 /// and anchors its relative paths). Make one with `peridyn.load`.
@@ -195,8 +197,9 @@ fn check_deck(
 
 /// Runs a deck to its end as `peridyn run DECK -o OUT_DIR` does, writing the same files
 /// (byte for byte but for the wall times in summary.txt). `restart=True` continues a killed
-/// run from the checkpoint in `out_dir`. Returns the summary as a dict. The run is one
-/// library call: Ctrl-C takes effect when it returns (step a `Simulation` to stop sooner).
+/// run from the checkpoint in `out_dir`. Returns the summary as a dict. Ctrl-C stops the run
+/// after the step in progress and raises KeyboardInterrupt, its files finished up to that
+/// step (no summary.txt).
 #[pyfunction]
 #[pyo3(signature = (deck, out_dir, threads = None, quiet = true, restart = false))]
 fn run<'py>(
@@ -213,12 +216,38 @@ fn run<'py>(
         threads: errors::threads(threads)?,
         quiet,
     };
+    let interrupt = Arc::new(AtomicBool::new(false));
     let control = RunControl {
         restart,
         stop_after_step: None,
+        interrupt: Some(interrupt.clone()),
     };
     let ld = &deck.ld;
-    let summary = py.detach(|| guard(|| run_with(ld, &opts, &control).map_err(Failure::from)))?;
+    // The run goes on in a thread of its own while this one, the main thread, looks for
+    // Ctrl-C (Python's signal handlers run there only) and asks the run to stop at it.
+    let summary = std::thread::scope(|scope| {
+        let main = std::thread::current();
+        let running = scope.spawn(move || {
+            let result = guard(|| run_with(ld, &opts, &control).map_err(Failure::from));
+            main.unpark();
+            result
+        });
+        loop {
+            py.detach(|| std::thread::park_timeout(simulation::SIGNAL_INTERVAL));
+            if running.is_finished() {
+                break;
+            }
+            if let Err(e) = py.check_signals() {
+                interrupt.store(true, Ordering::Relaxed);
+                // It stops after the step in progress, its files finished there.
+                let _ = py.detach(|| running.join());
+                return Err(e);
+            }
+        }
+        Ok(running
+            .join()
+            .unwrap_or_else(|p| Err(Failure::Internal(errors::panic_message(&*p)))))
+    })??;
     let d = PyDict::new(py);
     d.set_item("report", report_dict(py, &summary.report)?)?;
     d.set_item("wall_seconds", summary.wall_seconds)?;

@@ -15,10 +15,12 @@ use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// How long a stretch of steps runs without the GIL before Ctrl-C is looked for.
-const SIGNAL_INTERVAL: Duration = Duration::from_millis(50);
+pub(crate) const SIGNAL_INTERVAL: Duration = Duration::from_millis(50);
 
-/// A simulation built from a deck and stepped from Python (one explicit stage at a fixed
-/// time step; other decks run whole with `peridyn.run`).
+/// A simulation built from a deck and stepped from Python: any deck `peridyn run` runs, a
+/// step being one committed step of its run (an explicit step, of the adaptive dt's size
+/// with `[solver.adaptive]`; a quasi-static load step; a staged deck's steps cross its
+/// stages as the run's do).
 ///
 /// Node data: `positions`, `displacement`, `velocity`, `force` (n × dimension), `volume`
 /// and `block` (n) are read-only views of the simulation's own arrays (no copy; they follow
@@ -201,39 +203,60 @@ impl Simulation {
         Ok(self.with(|s| Ok(s.step()))?)
     }
 
-    /// Time step (s).
+    /// Time step (s) of the next step: with `[solver.adaptive]` the controller's next try
+    /// (the history's `dt` column has each committed one); in a quasi-static stage the load
+    /// increment (pseudo-time).
     #[getter]
     fn dt(&self) -> PyResult<f64> {
         Ok(self.with(|s| Ok(s.dt()))?)
     }
 
-    /// The deck's number of steps (its end).
+    /// The deck's number of steps: load steps of a quasi-static deck, the sum of a staged
+    /// deck's stages, an estimate (end time / first dt) with an adaptive time step; `done`
+    /// says when the run is over.
     #[getter]
     fn steps(&self) -> PyResult<u64> {
         Ok(self.with(|s| Ok(s.steps()))?)
     }
 
-    /// The deck's end time (s).
+    /// The deck's end time (s; a quasi-static deck's: its pseudo-time; a staged deck's: the
+    /// sum of its stages' durations).
     #[getter]
     fn end_time(&self) -> PyResult<f64> {
-        Ok(self.with(|s| Ok(s.steps() as f64 * s.dt()))?)
+        Ok(self.with(|s| Ok(s.report.end_time))?)
     }
 
     /// Whether the deck's last step is done.
     #[getter]
     fn done(&self) -> PyResult<bool> {
-        Ok(self.with(|s| Ok(s.step() >= s.steps()))?)
+        Ok(self.with(|s| Ok(s.done()))?)
     }
 
-    /// Takes `n` steps (the GIL released; Ctrl-C stops between steps with
-    /// KeyboardInterrupt). Returns the step count.
+    /// The stage of the last step: 0 for the deck's own (and in an unstaged deck), k for
+    /// `[[stages]]` k − 1.
+    #[getter]
+    fn stage(&self) -> PyResult<usize> {
+        Ok(self.with(|s| Ok(s.stage().0))?)
+    }
+
+    /// The name of the stage of the last step: the deck's `name`, or its number from 1.
+    #[getter]
+    fn stage_name(&self) -> PyResult<String> {
+        Ok(self.with(|s| Ok(s.stage().1.to_string()))?)
+    }
+
+    /// Takes `n` steps, or fewer at the deck's end (the GIL released; Ctrl-C stops between
+    /// steps with KeyboardInterrupt). A quasi-static step is one load step (a load step split
+    /// because it broke too many bonds counts each committed piece, as `history.csv`'s `step`
+    /// column does). Returns the step count.
     #[pyo3(signature = (n = 1))]
     fn step(&self, py: Python<'_>, n: u64) -> PyResult<u64> {
         let target = self.with(|s| Ok(s.step().saturating_add(n)))?;
         self.advance(py, Target::Step(target))
     }
 
-    /// Steps to the deck's end, or to time `until` (s); returns the step count.
+    /// Steps to the deck's end (its last stage's), or to the first step at or past time
+    /// `until` (s); returns the step count.
     #[pyo3(signature = (until = None))]
     fn run(&self, py: Python<'_>, until: Option<f64>) -> PyResult<u64> {
         let target = match until {
@@ -243,7 +266,7 @@ impl Simulation {
                 )))
             }
             Some(t) => Target::Time(t),
-            None => Target::Step(self.with(|s| Ok(s.steps()))?),
+            None => Target::End,
         };
         self.advance(py, target)
     }
@@ -349,16 +372,17 @@ impl Simulation {
     }
 
     /// The history so far with the columns of `history.csv` (time, step, energies, broken
-    /// bonds, reactions and mean displacements of every node set, …): a dict of numpy
-    /// arrays (copies), rows at step 0, every `[output] history_interval` steps and the
-    /// deck's last step.
+    /// bonds, dt, iterations, reactions and mean displacements of every node set, a staged
+    /// deck's `stage`, …): a dict of numpy arrays (copies), rows where `history.csv` has
+    /// them (step 0, every `history_interval` steps, each stage's last step, the deck's
+    /// last).
     fn history<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let (header, columns) = self.with(|s| {
             let (header, rows) = s.history();
             let columns: Vec<Vec<f64>> = (0..header.len())
                 .map(|k| rows.iter().map(|r| r[k]).collect())
                 .collect();
-            Ok((header.to_vec(), columns))
+            Ok((header, columns))
         })?;
         let d = PyDict::new(py);
         for (name, column) in header.into_iter().zip(columns) {
@@ -457,7 +481,8 @@ impl Simulation {
     }
 
     /// Continues from a checkpoint of this deck (one `save_checkpoint` or `peridyn run`
-    /// wrote); a refused one leaves the simulation as it was.
+    /// wrote) in the stage it was written in, as `peridyn run --restart` does; a refused one
+    /// leaves the simulation as it was.
     fn load_checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         Ok(py.detach(|| self.with(|s| s.load_checkpoint(&path).map_err(Failure::from)))?)
     }

@@ -80,6 +80,64 @@ end_time = 1e-6
 safety_factor = 0.8
 """
 
+# The strip at Δx = 0.2 mm, its grips pulled apart quasi-statically: four load steps of 2.5 µm
+# per grip, the last opening the notch into a crack; a load step that breaks more than 10
+# bonds is split (16 committed steps in all).
+QUASI_STATIC = PLATE.split("[[boundary_conditions]]")[0].replace("spacing = 0.1e-3", "spacing = 0.2e-3") + """
+[[boundary_conditions]]
+set = "top"
+kind = "displacement"
+component = "y"
+value = 10e-6
+time = { type = "ramp", duration = 1.0 }
+
+[[boundary_conditions]]
+set = "bottom"
+kind = "displacement"
+component = "y"
+value = -10e-6
+time = { type = "ramp", duration = 1.0 }
+
+[solver]
+type = "quasi_static"
+load_steps = 4
+tolerance = 1e-4
+max_broken_bonds = 10
+
+[output]
+snapshots = 2
+"""
+
+# The strip with seed 004's adaptive time step, strict enough to reject steps.
+ADAPTIVE = PLATE.replace("safety_factor = 0.8\n", """safety_factor = 0.8
+
+[solver.adaptive]
+max_broken_per_node = 1
+stable_steps = 5
+""")
+
+# A quasi-static preload with every bond held, then an explicit release (seed 002's
+# protocol, examples/seed002_preload_release.toml) on the strip.
+STAGED = QUASI_STATIC.replace('no_fail = ["top", "bottom"]', 'no_fail = ["all"]').split("[solver]")[0] + """[solver]
+type = "quasi_static"
+load_steps = 2
+end_time = 1.0
+tolerance = 1e-5
+
+[[stages]]
+name = "release"
+no_fail = ["top", "bottom"]
+history_interval = 7
+[stages.solver]
+type = "explicit"
+end_time = 1.5e-6
+safety_factor = 0.8
+
+[output]
+snapshots = 2
+"""
+assert "release" in STAGED and "adaptive" in ADAPTIVE
+
 
 @pytest.fixture
 def plate_text():

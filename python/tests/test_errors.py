@@ -91,12 +91,6 @@ def test_bad_arguments_raise(plate_text, free_text):
     sim.step()
 
 
-def test_decks_a_simulation_cannot_step_point_to_run(plate_text):
-    adaptive = peridyn.load(plate_text + "\n[solver.adaptive]\n")
-    with pytest.raises(peridyn.DeckError, match=r"<string>:\d+:\d+: solver.adaptive: .*peridyn\.run"):
-        peridyn.Simulation(adaptive)
-
-
 def test_a_time_step_above_the_stable_one_is_refused(plate_text):
     with pytest.raises(peridyn.DeckError, match="solver.dt.*exceeds the stable time step"):
         peridyn.Simulation(plate_text.replace("safety_factor = 0.8", "dt = 1e-6"))

@@ -100,3 +100,26 @@ def test_a_displacement_prescribed_from_python_is_reached_at_the_next_step(plate
     assert np.all(sim.displacement[top, 0] == 1e-6)
     # The reaction of the set follows in the history (columns of every node set).
     assert "reaction_top_x" in sim.history()
+
+
+def test_ctrl_c_stops_peridyn_run_between_steps_with_its_files_finished(plate_text, tmp_path):
+    long = plate_text.replace("end_time = 4e-6", "end_time = 4e-3")
+    out = tmp_path / "out"
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        peridyn.run(long, out, threads=1)
+    timer.join()
+    # Stopped part-way, every file finished at that step: whole history rows, the snapshot
+    # series closed; no summary (the run did not end).
+    assert not (out / "summary.txt").exists()
+    with open(out / "history.csv") as f:
+        rows = list(csv.reader(f))
+    assert all(len(r) == len(rows[0]) for r in rows)
+    steps = [int(float(r[1])) for r in rows[1:]]
+    total = peridyn.check_deck(long)["steps"]
+    assert steps == sorted(steps) and 0 < steps[-1] < total
+    assert (out / "fields.pvd").read_text().rstrip().endswith("</VTKFile>")
+    # Nothing is left running: the next run goes as usual.
+    summary = peridyn.run(plate_text, tmp_path / "again")
+    assert summary["report"]["steps"] > 0

@@ -31,6 +31,8 @@ use crate::deck::{DeckError, LoadedDeck};
 use crate::material::Material;
 use crate::solver::StepError;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Why a run stopped early.
@@ -53,6 +55,10 @@ pub enum RunError {
     /// The run stopped after this step as `RunControl::stop_after_step` asked.
     #[error("stopped after step {0} as asked (--stop-after-step)")]
     Stopped(u64),
+    /// The run stopped after this step because `RunControl::interrupt` was set; its files
+    /// hold every step up to it.
+    #[error("interrupted after step {0}")]
+    Interrupted(u64),
 }
 
 /// Options of `peridyn run`.
@@ -71,6 +77,9 @@ pub struct RunControl {
     pub restart: bool,
     /// Stop after this step as a killed run would (files not finished): for tests of restarts.
     pub stop_after_step: Option<u64>,
+    /// Once set (from another thread: Ctrl-C in Python), the run stops after the step in
+    /// progress with `RunError::Interrupted`, its files finished up to that step.
+    pub interrupt: Option<Arc<AtomicBool>>,
 }
 
 pub(crate) fn with_threads<T: Send>(
@@ -160,7 +169,8 @@ fn run_model<const D: usize, M: Material<D>>(
     let started = Instant::now();
     let result = {
         let stop_after = control.stop_after_step;
-        let mut watch = stages::Watch::new(&mut observers, checkpoints, stop_after, resume, staged);
+        let mut watch = stages::Watch::new(&mut observers, checkpoints, stop_after, resume, staged)
+            .with_interrupt(control.interrupt.clone());
         let settings = solver_settings(&ld.deck);
         stages::drive_stages(&mut sim, settings, &report, plans, &mut watch)
     };

@@ -18,6 +18,7 @@ use crate::observe::stage_record::StageRecord;
 use crate::observe::Observer;
 use crate::solver::Simulation;
 use std::cell::RefCell;
+use std::path::Path;
 use std::rc::Rc;
 
 /// A run's observers, and the handles the analysis observers leave their end-of-run reports
@@ -58,31 +59,14 @@ pub(crate) fn attach_to<const D: usize>(
 ) -> Result<Attached<D>, RunError> {
     let deck = &ld.deck;
     let out = &opts.out_dir;
-    let sets: Vec<(String, Vec<u32>)> = body
-        .node_sets
-        .iter()
-        .map(|(k, v)| (k.clone(), v.clone()))
-        .collect();
     let snapshot_every = if deck.output.snapshots == 0 {
         u64::MAX
     } else {
         report.steps.div_ceil(deck.output.snapshots).max(1)
     };
-    let history_every = match deck.history_interval() {
-        0 => u64::MAX,
-        k => k,
-    };
     let title = ld.title();
-    let openings = opening_nodes(body, &deck.output.openings);
-    let impactor_names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
-    let history = |path: &std::path::Path| -> Box<dyn Observer<D>> {
-        let h = History::new::<D>(path, history_every, &sets).with_openings(&openings);
-        let h = match deck.contact.is_some() || !deck.impactors.is_empty() {
-            true => h.with_contact::<D>(&impactor_names),
-            false => h,
-        };
-        Box::new(if staged { h.with_stages() } else { h })
-    };
+    let history =
+        |path: &Path| -> Box<dyn Observer<D>> { Box::new(history::<D>(deck, body, staged, path)) };
     let history_path = out.join("history.csv");
     let output = &deck.output;
     let (history, snapshots) = if restarting {
@@ -153,6 +137,38 @@ pub(crate) fn attach_to<const D: usize>(
         path,
         surface,
     })
+}
+
+/// The history of a run on `body` written to `path` (`staged`: with the column `stage`); a
+/// session keeps one in memory.
+pub(crate) fn history<const D: usize>(
+    deck: &crate::deck::Deck,
+    body: &Body<D>,
+    staged: bool,
+    path: &Path,
+) -> History {
+    let sets: Vec<(String, Vec<u32>)> = body
+        .node_sets
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    let every = match deck.history_interval() {
+        0 => u64::MAX,
+        k => k,
+    };
+    let h = History::new::<D>(path, every, &sets)
+        .with_openings(&opening_nodes(body, &deck.output.openings));
+    let h = if deck.contact.is_some() || !deck.impactors.is_empty() {
+        let names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
+        h.with_contact::<D>(&names)
+    } else {
+        h
+    };
+    if staged {
+        h.with_stages()
+    } else {
+        h
+    }
 }
 
 /// Each opening's name and the nodes nearest its two points (the lowest index on a tie).

@@ -1,17 +1,21 @@
 //! The stage loops: a staged run's stages one after the other, and each stage's drive loop
 //! (explicit with a fixed or adaptive time step, quasi-static load steps), offering every
-//! committed step to the observers and writing the checkpoints that fall on it.
+//! committed step to the observers and writing the checkpoints that fall on it. A run is
+//! taken one committed step at a time (`Course::advance`): `drive_stages` takes them all, a
+//! session (`crate::session`) a few per call, through the same code.
 
 use super::{ModelReport, RunError};
 use crate::checkpoint::{Checkpoints, DriverState};
 use crate::deck::solver_settings::SolverSettings;
-use crate::deck::stages::{StagePlan, StageReport};
+use crate::deck::stages::StagePlan;
 use crate::material::Material;
 use crate::math::Vector;
 use crate::observe::{Observer, StageStart, StepView};
 use crate::solver::Fields;
 use crate::solver::{AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation};
 use crate::state::State;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Drives the whole run: the deck's stages, or its one stage.
@@ -22,125 +26,477 @@ pub(crate) fn drive_stages<const D: usize, M: Material<D>>(
     plans: Vec<StagePlan<D>>,
     watch: &mut Watch<D>,
 ) -> Result<(), RunError> {
-    if plans.is_empty() {
-        run_stage(sim, first, report, watch)
-    } else {
-        run_stages(sim, first, report, plans, watch)
-    }
+    let mut course = Course::new(first, report, plans);
+    while course.advance(sim, watch)? {}
+    Ok(())
 }
 
-/// Runs the deck's stages one after the other: each starts from the state the one before
-/// left (the clock runs on), with its own boundary conditions, loads, no-fail sets, solver and
-/// history interval; a quasi-static stage starts at rest. A run continued from a checkpoint
-/// skips the stages finished before it and continues the one it was in.
-fn run_stages<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
+/// A run's stages and where it is in them: the deck's stages one after the other, each
+/// starting from the state the one before left (the clock runs on), with its own boundary
+/// conditions, loads, no-fail sets, solver and history interval; a quasi-static stage starts
+/// at rest. A run continued from a checkpoint skips the stages finished before it and
+/// continues the one it was in.
+pub(crate) struct Course<const D: usize> {
+    /// The deck's own stage's solver.
     first: SolverSettings,
-    report: &ModelReport,
-    plans: Vec<StagePlan<D>>,
-    watch: &mut Watch<D>,
-) -> Result<(), RunError> {
-    let count = plans.len() + 1;
-    let resumed_stage = watch.resume.as_ref().map_or(0, |d| d.stage as usize);
-    if resumed_stage == 0 {
-        watch.final_stage = count == 1;
-        run_stage(sim, first, &report.stages[0], watch)?;
-    }
-    for (k, plan) in plans.into_iter().enumerate() {
-        let index = k + 1;
-        if index < resumed_stage {
-            continue;
-        }
-        let stage = &report.stages[index];
-        sim.body.no_fail = plan.no_fail;
-        sim.dt = stage.dt;
-        if index == resumed_stage {
-            // The checkpoint holds the state the stage's start made and what followed it.
-            sim.replace_loading(plan.loading);
+    /// The further stages, in order; taken as they start.
+    plans: std::vec::IntoIter<StagePlan<D>>,
+    /// Each stage's steps, time step (or load increment) and duration.
+    spans: Vec<Span>,
+    /// The next stage to start.
+    next: usize,
+    /// The loop of the stage in progress.
+    current: Option<Loop<D>>,
+}
+
+/// How long a stage runs: a `ModelReport`'s numbers, or a `StageReport`'s.
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    steps: u64,
+    dt: f64,
+    duration: f64,
+}
+
+impl<const D: usize> Course<D> {
+    pub(crate) fn new(
+        first: SolverSettings,
+        report: &ModelReport,
+        plans: Vec<StagePlan<D>>,
+    ) -> Self {
+        let spans = if plans.is_empty() {
+            vec![Span {
+                steps: report.steps,
+                dt: report.dt,
+                duration: report.end_time,
+            }]
         } else {
-            if plan.settings.quasi_static.is_some() {
-                sim.state.v.iter_mut().for_each(|v| *v = Vector::zeros());
-            }
-            sim.set_loading(plan.loading)?;
-            watch.stage_start = (sim.state.step, sim.state.time);
+            report
+                .stages
+                .iter()
+                .map(|s| Span {
+                    steps: s.steps,
+                    dt: s.dt,
+                    duration: s.duration,
+                })
+                .collect()
+        };
+        Course {
+            first,
+            plans: plans.into_iter(),
+            spans,
+            next: 0,
+            current: None,
         }
-        watch.stage = index as u64;
-        let start = StageStart {
-            index,
-            history_interval: match plan.history_interval {
-                0 => u64::MAX,
-                k => k,
+    }
+
+    /// Starts the run's first stage (the one a continued run was in), offering step 0 to a
+    /// fresh run's observers, when no stage has started yet.
+    pub(crate) fn start<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        watch: &mut Watch<D>,
+    ) -> Result<(), RunError> {
+        if self.next == 0 {
+            self.begin(sim, watch)?;
+        }
+        Ok(())
+    }
+
+    /// Takes one committed step, starting the next stage when the one in progress is done;
+    /// false when the run is over (no step taken).
+    pub(crate) fn advance<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        watch: &mut Watch<D>,
+    ) -> Result<bool, RunError> {
+        loop {
+            if let Some(stage) = self.current.as_mut() {
+                if stage.step(sim, watch)? {
+                    return Ok(true);
+                }
+                // A continued run's driver state served the stage it was in only.
+                self.current = None;
+                watch.at.resume = None;
+            }
+            if !self.begin(sim, watch)? {
+                return Ok(false);
+            }
+        }
+    }
+
+    /// Whether the run's last stage is done.
+    pub(crate) fn done<M: Material<D>>(&self, sim: &Simulation<D, M>) -> bool {
+        self.next == self.spans.len() && self.current.as_ref().is_none_or(|l| l.finished(sim))
+    }
+
+    /// The energy given to the run is what the state holds now (after a state written by
+    /// hand): blow-ups are measured against it from here on.
+    pub(crate) fn rebase<M: Material<D>>(&mut self, sim: &Simulation<D, M>) {
+        if let Some(l) = self.current.as_mut() {
+            l.rebase(sim);
+        }
+    }
+
+    /// The driver state a checkpoint of the current step records.
+    pub(crate) fn driver_state<M: Material<D>>(
+        &self,
+        sim: &Simulation<D, M>,
+        at: &Position<D>,
+    ) -> DriverState<D> {
+        let solver = match &self.current {
+            Some(l) => l.driver(sim),
+            None => DriverState {
+                next_dt: sim.dt,
+                ..DriverState::default()
             },
         };
-        for o in watch.observers.iter_mut() {
-            o.begin_stage(&start);
+        at.driver_state(sim, solver)
+    }
+
+    /// Starts the next stage (skipping those a continued run finished before its checkpoint):
+    /// its loading and the loop of its solver. False when no stage is left.
+    fn begin<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        watch: &mut Watch<D>,
+    ) -> Result<bool, RunError> {
+        let count = self.spans.len();
+        let resumed_stage = watch.at.resume.as_ref().map_or(0, |d| d.stage as usize);
+        let (index, settings) = loop {
+            let index = self.next;
+            if index >= count {
+                return Ok(false);
+            }
+            self.next += 1;
+            if index == 0 {
+                if resumed_stage == 0 {
+                    break (0, self.first.clone());
+                }
+                continue;
+            }
+            let plan = self.plans.next().expect("a plan for each further stage");
+            if index < resumed_stage {
+                continue;
+            }
+            sim.body.no_fail = plan.no_fail;
+            sim.dt = self.spans[index].dt;
+            if index == resumed_stage {
+                // The checkpoint holds the state the stage's start made and what followed it.
+                sim.replace_loading(plan.loading);
+            } else {
+                if plan.settings.quasi_static.is_some() {
+                    sim.state.v.iter_mut().for_each(|v| *v = Vector::zeros());
+                }
+                sim.set_loading(plan.loading)?;
+                watch.at.stage_start = (sim.state.step, sim.state.time);
+            }
+            watch.at.stage = index as u64;
+            let start = StageStart {
+                index,
+                history_interval: match plan.history_interval {
+                    0 => u64::MAX,
+                    k => k,
+                },
+            };
+            for o in watch.observers.iter_mut() {
+                o.begin_stage(&start);
+            }
+            break (index, plan.settings);
+        };
+        watch.at.final_stage = index + 1 == count;
+        let span = self.spans[index];
+        let (step, time) = watch.at.stage_start;
+        self.current = Some(match (settings.quasi_static, settings.adaptive) {
+            (Some(qs), _) => Loop::quasi_static(sim, qs, (time, span.steps), watch)?,
+            (None, Some(a)) => {
+                let adaptive = a.settings(sim.dt);
+                Loop::adaptive(sim, adaptive, time + span.duration, watch)?
+            }
+            (None, None) => Loop::explicit(sim, step + span.steps, watch)?,
+        });
+        Ok(true)
+    }
+}
+
+/// The loop of one stage's solver, taken one committed step at a time.
+enum Loop<const D: usize> {
+    /// Fixed steps until step `end` (counted from the run's start); `given` is the energy
+    /// given to the run, which `check_energy` measures blow-ups against.
+    Explicit { end: u64, given: (f64, f64) },
+    /// Adaptive steps until `end_time`, the last one shortened to land on it; times closer
+    /// than `slack` to the end are the end.
+    Adaptive {
+        controller: AdaptiveDt<D>,
+        end_time: f64,
+        slack: f64,
+        given: (f64, f64),
+    },
+    /// Load steps `k..=load_steps` of `increment` from the stage's start time `start`.
+    QuasiStatic {
+        solver: Box<QuasiStatic<D>>,
+        start: f64,
+        increment: f64,
+        load_steps: u64,
+        k: u64,
+    },
+}
+
+impl<const D: usize> Loop<D> {
+    fn explicit<M: Material<D>>(
+        sim: &mut Simulation<D, M>,
+        end: u64,
+        watch: &mut Watch<D>,
+    ) -> Result<Self, RunError> {
+        let given = (0.0, 0.0);
+        Loop::Explicit { end, given }.started(sim, end == 0, watch)
+    }
+
+    fn adaptive<M: Material<D>>(
+        sim: &mut Simulation<D, M>,
+        settings: AdaptiveDtSettings,
+        end_time: f64,
+        watch: &mut Watch<D>,
+    ) -> Result<Self, RunError> {
+        // From the initial dt, also when continuing.
+        let slack = 1e-9 * sim.dt;
+        let controller = match &watch.at.resume {
+            None => AdaptiveDt::new(settings),
+            Some(d) => {
+                sim.dt = d.next_dt;
+                AdaptiveDt::resumed(settings, d.since_change, d.rejected)
+            }
+        };
+        let given = (0.0, 0.0);
+        let l = Loop::Adaptive {
+            controller,
+            end_time,
+            slack,
+            given,
+        };
+        l.started(sim, end_time <= slack, watch)
+    }
+
+    /// A continued run skips the load steps whose targets it has passed and takes the
+    /// solver's memory from the checkpoint.
+    fn quasi_static<M: Material<D>>(
+        sim: &mut Simulation<D, M>,
+        settings: QuasiStaticSettings,
+        (start, load_steps): (f64, u64),
+        watch: &mut Watch<D>,
+    ) -> Result<Self, RunError> {
+        let increment = sim.dt;
+        let mut solver = QuasiStatic::new(sim, settings, increment);
+        if let Some(memory) = watch.at.resume.as_mut().and_then(|d| d.quasi_static.take()) {
+            solver.resume(memory);
         }
-        watch.final_stage = index + 1 == count;
-        run_stage(sim, plan.settings, stage, watch)?;
+        let l = Loop::QuasiStatic {
+            solver: Box::new(solver),
+            start,
+            increment,
+            load_steps,
+            k: 1,
+        };
+        l.started(sim, load_steps == 0, watch)
     }
-    Ok(())
-}
 
-/// One stage with its solver, from `watch.stage_start` (a run continued from a checkpoint is
-/// past it): `stage` gives its steps and duration (a `ModelReport` or `StageReport`). A
-/// continued run's driver state serves this stage only.
-fn run_stage<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    settings: SolverSettings,
-    stage: &impl StageLength,
-    watch: &mut Watch<D>,
-) -> Result<(), RunError> {
-    let (step, time) = watch.stage_start;
-    match (settings.quasi_static, settings.adaptive) {
-        (Some(qs), _) => quasi_static_loop(sim, qs, (time, stage.steps()), watch),
-        (None, Some(a)) => {
-            let adaptive = a.settings(sim.dt);
-            adaptive_loop(sim, adaptive, time + stage.duration(), watch)
+    /// Offers step 0 of a fresh run (`empty`: the stage has no steps, so it is also the
+    /// stage's end), then takes the energy given to the run.
+    fn started<M: Material<D>>(
+        mut self,
+        sim: &mut Simulation<D, M>,
+        empty: bool,
+        watch: &mut Watch<D>,
+    ) -> Result<Self, RunError> {
+        if watch.at.resume.is_none() && sim.state.step == 0 {
+            watch.commit(sim, empty, |sim| self.driver(sim))?;
         }
-        (None, None) => explicit_loop(sim, step + stage.steps(), watch),
-    }?;
-    watch.resume = None;
-    Ok(())
+        self.rebase(sim);
+        Ok(self)
+    }
+
+    fn rebase<M: Material<D>>(&mut self, sim: &Simulation<D, M>) {
+        match self {
+            Loop::Explicit { given, .. } | Loop::Adaptive { given, .. } => {
+                *given = energy_given(sim)
+            }
+            Loop::QuasiStatic { .. } => {}
+        }
+    }
+
+    /// The solver's part of a checkpoint.
+    fn driver<M: Material<D>>(&self, sim: &Simulation<D, M>) -> DriverState<D> {
+        match self {
+            Loop::Explicit { .. } => DriverState {
+                next_dt: sim.dt,
+                ..DriverState::default()
+            },
+            Loop::Adaptive { controller, .. } => DriverState {
+                next_dt: sim.dt,
+                since_change: controller.since_change(),
+                rejected: controller.rejected,
+                ..DriverState::default()
+            },
+            Loop::QuasiStatic { solver, .. } => DriverState {
+                quasi_static: Some(solver.memory()),
+                ..DriverState::default()
+            },
+        }
+    }
+
+    /// Whether the stage's last step is done.
+    fn finished<M: Material<D>>(&self, sim: &Simulation<D, M>) -> bool {
+        match *self {
+            Loop::Explicit { end, .. } => sim.state.step >= end,
+            Loop::Adaptive {
+                end_time, slack, ..
+            } => end_time - sim.state.time <= slack,
+            Loop::QuasiStatic {
+                start,
+                increment,
+                load_steps,
+                ..
+            } => sim.state.time >= start + load_steps as f64 * increment,
+        }
+    }
+
+    /// Takes the stage's steps to its end.
+    fn run<M: Material<D>>(
+        mut self,
+        sim: &mut Simulation<D, M>,
+        watch: &mut Watch<D>,
+    ) -> Result<(), RunError> {
+        while self.step(sim, watch)? {}
+        Ok(())
+    }
+
+    /// Takes one committed step of the stage: steps it, checks it for blow-up and offers it
+    /// to the observers. False when the stage is done (no step taken).
+    fn step<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        watch: &mut Watch<D>,
+    ) -> Result<bool, RunError> {
+        match self {
+            Loop::Explicit { end, given } => {
+                let (end, given) = (*end, *given);
+                let k = sim.state.step + 1;
+                if k > end {
+                    return Ok(false);
+                }
+                sim.step()?;
+                if k % 100 == 0 || k == end {
+                    sim.check_finite()?;
+                }
+                // Every 10 steps: an O(nodes) sum that sees an instability before it overflows.
+                if k % 10 == 0 || k == end {
+                    sim.check_energy(given)?;
+                }
+                watch.commit(sim, k == end, |sim| self.driver(sim))?;
+            }
+            Loop::Adaptive {
+                controller,
+                end_time,
+                slack,
+                given,
+            } => {
+                let (end_time, slack, given) = (*end_time, *slack, *given);
+                if end_time - sim.state.time <= slack {
+                    return Ok(false);
+                }
+                sim.dt = sim.dt.min(end_time - sim.state.time);
+                controller.step(sim)?;
+                let k = sim.state.step;
+                let last = end_time - sim.state.time <= slack;
+                if k.is_multiple_of(100) || last {
+                    sim.check_finite()?;
+                }
+                if k.is_multiple_of(10) || last {
+                    sim.check_energy(given)?;
+                }
+                watch.commit(sim, last, |sim| self.driver(sim))?;
+            }
+            Loop::QuasiStatic {
+                solver,
+                start,
+                increment,
+                load_steps,
+                k,
+            } => loop {
+                if *k > *load_steps {
+                    return Ok(false);
+                }
+                // The target from k, not by summing increments: no drift over many steps.
+                let target = *start + *k as f64 * *increment;
+                if sim.state.time >= target {
+                    *k += 1;
+                    continue;
+                }
+                // One committed piece: the whole load step, or a part of a split one.
+                solver.advance(sim, target)?;
+                sim.check_finite()?;
+                let stage_end = *k == *load_steps && sim.state.time >= target;
+                watch.commit(sim, stage_end, |sim| self.driver(sim))?;
+                break;
+            },
+        }
+        Ok(true)
+    }
 }
 
-/// How long a stage runs.
-trait StageLength {
-    fn steps(&self) -> u64;
-    fn duration(&self) -> f64;
-}
-
-impl StageLength for ModelReport {
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-    fn duration(&self) -> f64 {
-        self.end_time
-    }
-}
-
-impl StageLength for StageReport {
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-    fn duration(&self) -> f64 {
-        self.duration
-    }
-}
-
-/// What the explicit loops do with each committed step besides stepping: offer it to the
-/// observers, write the checkpoint that falls on it, stop where asked.
-pub(crate) struct Watch<'a, const D: usize> {
-    observers: &'a mut [Box<dyn Observer<D>>],
-    checkpoints: Option<Checkpoints>,
-    stop_after: Option<u64>,
+/// Where a run is in its stages: what its checkpoints record besides the solver's part.
+#[derive(Default)]
+pub(crate) struct Position<const D: usize> {
     /// Continuing from a checkpoint (whose step the observers saw before the interruption)
-    /// with the driver state it kept.
+    /// with the driver state it kept, until the stage it was in ends.
     resume: Option<DriverState<D>>,
     /// The stage in progress is the run's last: its end is the end of the run.
     final_stage: bool,
     /// The stage in progress and the step and time it started at.
     stage: u64,
     stage_start: (u64, f64),
+}
+
+impl<const D: usize> Position<D> {
+    /// The start of a run, or of a run continued with a checkpoint's driver state (which
+    /// names the stage in progress).
+    pub(crate) fn new(resume: Option<DriverState<D>>, staged: bool) -> Self {
+        Position {
+            stage: resume.as_ref().map_or(0, |d| d.stage),
+            stage_start: resume.as_ref().map_or((0, 0.0), |d| d.stage_start),
+            resume,
+            final_stage: !staged,
+        }
+    }
+
+    /// The stage in progress (0: the deck's own).
+    pub(crate) fn stage(&self) -> usize {
+        self.stage as usize
+    }
+
+    /// A checkpoint's driver state: the solver's part, the stage and the impactors.
+    fn driver_state<M: Material<D>>(
+        &self,
+        sim: &Simulation<D, M>,
+        solver: DriverState<D>,
+    ) -> DriverState<D> {
+        DriverState {
+            stage: self.stage,
+            stage_start: self.stage_start,
+            impactors: sim.impactors.states(),
+            ..solver
+        }
+    }
+}
+
+/// What the loops do with each committed step besides stepping: offer it to the observers,
+/// write the checkpoint that falls on it, stop where asked.
+pub(crate) struct Watch<'a, const D: usize> {
+    observers: &'a mut [Box<dyn Observer<D>>],
+    checkpoints: Option<Checkpoints>,
+    stop_after: Option<u64>,
+    /// Set from elsewhere (Ctrl-C in Python) to stop after the step in progress.
+    interrupt: Option<Arc<AtomicBool>>,
+    at: Position<D>,
     /// Where the observers' view comes from when not from the simulation itself.
     source: Option<&'a mut dyn ViewSource<D>>,
 }
@@ -177,12 +533,28 @@ impl<'a, const D: usize> Watch<'a, D> {
             observers,
             checkpoints,
             stop_after,
-            stage: resume.as_ref().map_or(0, |d| d.stage),
-            stage_start: resume.as_ref().map_or((0, 0.0), |d| d.stage_start),
-            resume,
-            final_stage: !staged,
+            interrupt: None,
+            at: Position::new(resume, staged),
             source: None,
         }
+    }
+
+    /// Only observers, at `at`: a session's watch, made for each call from the position
+    /// the last one left (`position`).
+    pub(crate) fn at(observers: &'a mut [Box<dyn Observer<D>>], at: Position<D>) -> Self {
+        Watch {
+            observers,
+            checkpoints: None,
+            stop_after: None,
+            interrupt: None,
+            at,
+            source: None,
+        }
+    }
+
+    /// Where the run is: for the next call's watch.
+    pub(crate) fn position(self) -> Position<D> {
+        self.at
     }
 
     /// The observers see the steps through `source`.
@@ -191,18 +563,15 @@ impl<'a, const D: usize> Watch<'a, D> {
         self
     }
 
+    /// The run stops after the step in progress once `flag` is set.
+    pub(crate) fn with_interrupt(mut self, flag: Option<Arc<AtomicBool>>) -> Self {
+        self.interrupt = flag;
+        self
+    }
+
     /// Only observers.
     fn observers(observers: &'a mut [Box<dyn Observer<D>>]) -> Self {
-        Watch {
-            observers,
-            checkpoints: None,
-            stop_after: None,
-            resume: None,
-            final_stage: true,
-            stage: 0,
-            stage_start: (0, 0.0),
-            source: None,
-        }
+        Watch::at(observers, Position::new(None, false))
     }
 
     /// Offers a committed step; `stage_end`: it ends the stage (and the run, in the last).
@@ -213,7 +582,7 @@ impl<'a, const D: usize> Watch<'a, D> {
         stage_end: bool,
         driver: impl FnOnce(&Simulation<D, M>) -> DriverState<D>,
     ) -> Result<(), RunError> {
-        let last = stage_end && self.final_stage;
+        let last = stage_end && self.at.final_stage;
         match self.source.as_deref_mut() {
             None => offer(sim, self.observers, last, stage_end)?,
             Some(source) => {
@@ -229,12 +598,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             for o in self.observers.iter_mut() {
                 o.flush()?;
             }
-            let driver = DriverState {
-                stage: self.stage,
-                stage_start: self.stage_start,
-                impactors: sim.impactors.states(),
-                ..driver(sim)
-            };
+            let driver = self.at.driver_state(sim, driver(sim));
             match self.source.as_deref_mut() {
                 None => c.write(&sim.state, &driver)?,
                 Some(source) => {
@@ -246,7 +610,11 @@ impl<'a, const D: usize> Watch<'a, D> {
             sim.counters.observe += started.elapsed();
         }
         match self.stop_after {
-            Some(n) if step >= n && !last => Err(RunError::Stopped(step)),
+            Some(n) if step >= n && !last => return Err(RunError::Stopped(step)),
+            _ => {}
+        }
+        match &self.interrupt {
+            Some(flag) if !last && flag.load(Ordering::Relaxed) => Err(RunError::Interrupted(step)),
             _ => Ok(()),
         }
     }
@@ -258,35 +626,8 @@ pub fn drive<const D: usize, M: Material<D>>(
     steps: u64,
     observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
-    explicit_loop(sim, steps, &mut Watch::observers(observers))
-}
-
-/// Fixed steps until step `steps` (counted from the run's start).
-fn explicit_loop<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    steps: u64,
-    watch: &mut Watch<D>,
-) -> Result<(), RunError> {
-    let driver = |sim: &Simulation<D, M>| DriverState {
-        next_dt: sim.dt,
-        ..DriverState::default()
-    };
-    if watch.resume.is_none() && sim.state.step == 0 {
-        watch.commit(sim, steps == 0, driver)?;
-    }
-    let given = energy_given(sim);
-    for k in sim.state.step + 1..=steps {
-        sim.step()?;
-        if k % 100 == 0 || k == steps {
-            sim.check_finite()?;
-        }
-        // Every 10 steps: an O(nodes) sum that sees an instability before it overflows.
-        if k % 10 == 0 || k == steps {
-            sim.check_energy(given)?;
-        }
-        watch.commit(sim, k == steps, driver)?;
-    }
-    Ok(())
+    let watch = &mut Watch::observers(observers);
+    Loop::explicit(sim, steps, watch)?.run(sim, watch)
 }
 
 /// The energy a loop starts with (kinetic and strain energy, and contact's: penalty energy
@@ -310,50 +651,8 @@ pub fn drive_adaptive<const D: usize, M: Material<D>>(
     end_time: f64,
     observers: &mut [Box<dyn Observer<D>>],
 ) -> Result<(), RunError> {
-    adaptive_loop(sim, settings, end_time, &mut Watch::observers(observers))
-}
-
-fn adaptive_loop<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    settings: AdaptiveDtSettings,
-    end_time: f64,
-    watch: &mut Watch<D>,
-) -> Result<(), RunError> {
-    // Times closer than this to the end are the end (rounding of accumulated steps); from
-    // the initial dt, also when continuing.
-    let slack = 1e-9 * sim.dt;
-    let mut controller = match &watch.resume {
-        None => AdaptiveDt::new(settings),
-        Some(d) => {
-            sim.dt = d.next_dt;
-            AdaptiveDt::resumed(settings, d.since_change, d.rejected)
-        }
-    };
-    let driver = |sim: &Simulation<D, M>, c: &AdaptiveDt<D>| DriverState {
-        next_dt: sim.dt,
-        since_change: c.since_change(),
-        rejected: c.rejected,
-        ..DriverState::default()
-    };
-    if watch.resume.is_none() && sim.state.step == 0 {
-        watch.commit(sim, end_time <= slack, |sim| driver(sim, &controller))?;
-    }
-    let mut k = sim.state.step;
-    let given = energy_given(sim);
-    while end_time - sim.state.time > slack {
-        sim.dt = sim.dt.min(end_time - sim.state.time);
-        controller.step(sim)?;
-        k += 1;
-        let last = end_time - sim.state.time <= slack;
-        if k.is_multiple_of(100) || last {
-            sim.check_finite()?;
-        }
-        if k.is_multiple_of(10) || last {
-            sim.check_energy(given)?;
-        }
-        watch.commit(sim, last, |sim| driver(sim, &controller))?;
-    }
-    Ok(())
+    let watch = &mut Watch::observers(observers);
+    Loop::adaptive(sim, settings, end_time, watch)?.run(sim, watch)
 }
 
 /// The quasi-static loop: `load_steps` equal load steps of pseudo-time `sim.dt`, each
@@ -367,41 +666,7 @@ pub fn drive_quasi_static<const D: usize, M: Material<D>>(
 ) -> Result<(), RunError> {
     let start = sim.state.time;
     let watch = &mut Watch::observers(observers);
-    quasi_static_loop(sim, settings, (start, load_steps), watch)
-}
-
-/// Load steps from the stage's start time `start`; a continued run skips the load steps whose
-/// targets it has passed and takes the solver's memory from the checkpoint.
-fn quasi_static_loop<const D: usize, M: Material<D>>(
-    sim: &mut Simulation<D, M>,
-    settings: QuasiStaticSettings,
-    (start, load_steps): (f64, u64),
-    watch: &mut Watch<D>,
-) -> Result<(), RunError> {
-    let increment = sim.dt;
-    let mut solver = QuasiStatic::new(sim, settings, increment);
-    let driver = |solver: &QuasiStatic<D>| DriverState {
-        quasi_static: Some(solver.memory()),
-        ..DriverState::default()
-    };
-    match watch.resume.as_mut().and_then(|d| d.quasi_static.take()) {
-        Some(memory) => solver.resume(memory),
-        None if watch.resume.is_none() && sim.state.step == 0 => {
-            watch.commit(sim, load_steps == 0, |_| driver(&solver))?;
-        }
-        None => {}
-    }
-    for k in 1..=load_steps {
-        // The target from k, not by summing increments: no drift over many steps.
-        let target = start + k as f64 * increment;
-        while sim.state.time < target {
-            solver.advance(sim, target)?;
-            sim.check_finite()?;
-            let stage_end = k == load_steps && sim.state.time >= target;
-            watch.commit(sim, stage_end, |_| driver(&solver))?;
-        }
-    }
-    Ok(())
+    Loop::quasi_static(sim, settings, (start, load_steps), watch)?.run(sim, watch)
 }
 
 /// Offers a committed step to the observers that want it; every observer's schedule
