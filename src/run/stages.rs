@@ -9,6 +9,7 @@ use crate::deck::stages::{StagePlan, StageReport};
 use crate::material::Material;
 use crate::math::Vector;
 use crate::observe::{Observer, StageStart, StepView};
+use crate::solver::quasi_static::Ticker;
 use crate::solver::Fields;
 use crate::solver::{AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation};
 use crate::state::State;
@@ -143,6 +144,8 @@ pub(crate) struct Watch<'a, const D: usize> {
     stage_start: (u64, f64),
     /// Where the observers' view comes from when not from the simulation itself.
     source: Option<&'a mut dyn ViewSource<D>>,
+    /// Progress lines inside long quasi-static load steps (`RunOptions::quiet` off).
+    progress: bool,
 }
 
 /// How the observers see a committed step when the simulation is not the whole body: a
@@ -182,7 +185,14 @@ impl<'a, const D: usize> Watch<'a, D> {
             resume,
             final_stage: !staged,
             source: None,
+            progress: false,
         }
+    }
+
+    /// Prints progress inside long quasi-static load steps when `on`.
+    pub(crate) fn with_progress(mut self, on: bool) -> Self {
+        self.progress = on;
+        self
     }
 
     /// The observers see the steps through `source`.
@@ -202,6 +212,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             stage: 0,
             stage_start: (0, 0.0),
             source: None,
+            progress: false,
         }
     }
 
@@ -370,6 +381,9 @@ pub fn drive_quasi_static<const D: usize, M: Material<D>>(
     quasi_static_loop(sim, settings, (start, load_steps), watch)
 }
 
+/// At most this often a progress line inside a quasi-static load step.
+const PROGRESS_SECONDS: f64 = 5.0;
+
 /// Load steps from the stage's start time `start`; a continued run skips the load steps whose
 /// targets it has passed and takes the solver's memory from the checkpoint.
 fn quasi_static_loop<const D: usize, M: Material<D>>(
@@ -380,6 +394,9 @@ fn quasi_static_loop<const D: usize, M: Material<D>>(
 ) -> Result<(), RunError> {
     let increment = sim.dt;
     let mut solver = QuasiStatic::new(sim, settings, increment);
+    if watch.progress {
+        solver.ticker = Ticker::every(PROGRESS_SECONDS);
+    }
     let driver = |solver: &QuasiStatic<D>| DriverState {
         quasi_static: Some(solver.memory()),
         ..DriverState::default()
