@@ -104,6 +104,7 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
                 max_equilibria: *max_equilibria,
                 max_broken_per_step: *max_broken_bonds,
                 max_splits: *max_splits,
+                ..QuasiStaticSettings::default()
             }),
             adaptive: None,
         },

@@ -19,7 +19,7 @@ pub(crate) mod resolved;
 pub(crate) mod restart;
 pub(crate) mod stages;
 
-pub use check::{check, check_timed, TimeEstimate};
+pub use check::{check, check_timed, QuasiStaticBasis, TimeEstimate};
 pub use prepare::{prepare, prepare_shared, DamageAndReports};
 pub use report::{ModelReport, RunSummary};
 pub use stages::{drive, drive_adaptive, drive_quasi_static, ViewSource};
@@ -170,7 +170,8 @@ fn run_model<const D: usize, M: Material<D>>(
     let result = {
         let stop_after = control.stop_after_step;
         let mut watch = stages::Watch::new(&mut observers, checkpoints, stop_after, resume, staged)
-            .with_interrupt(control.interrupt.clone());
+            .with_interrupt(control.interrupt.clone())
+            .with_progress(!opts.quiet);
         let settings = solver_settings(&ld.deck);
         stages::drive_stages(&mut sim, settings, &report, plans, &mut watch)
     };

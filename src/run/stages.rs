@@ -11,6 +11,7 @@ use crate::deck::stages::StagePlan;
 use crate::material::Material;
 use crate::math::Vector;
 use crate::observe::{Observer, StageStart, StepView};
+use crate::solver::quasi_static::Ticker;
 use crate::solver::Fields;
 use crate::solver::{AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation};
 use crate::state::State;
@@ -286,6 +287,9 @@ impl<const D: usize> Loop<D> {
     ) -> Result<Self, RunError> {
         let increment = sim.dt;
         let mut solver = QuasiStatic::new(sim, settings, increment);
+        if watch.progress {
+            solver.ticker = Ticker::every(PROGRESS_SECONDS);
+        }
         if let Some(memory) = watch.at.resume.as_mut().and_then(|d| d.quasi_static.take()) {
             solver.resume(memory);
         }
@@ -499,6 +503,8 @@ pub(crate) struct Watch<'a, const D: usize> {
     at: Position<D>,
     /// Where the observers' view comes from when not from the simulation itself.
     source: Option<&'a mut dyn ViewSource<D>>,
+    /// Progress lines inside long quasi-static load steps (`RunOptions::quiet` off).
+    progress: bool,
 }
 
 /// How the observers see a committed step when the simulation is not the whole body: a
@@ -536,6 +542,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             interrupt: None,
             at: Position::new(resume, staged),
             source: None,
+            progress: false,
         }
     }
 
@@ -549,12 +556,19 @@ impl<'a, const D: usize> Watch<'a, D> {
             interrupt: None,
             at,
             source: None,
+            progress: false,
         }
     }
 
     /// Where the run is: for the next call's watch.
     pub(crate) fn position(self) -> Position<D> {
         self.at
+    }
+
+    /// Prints progress inside long quasi-static load steps when `on`.
+    pub(crate) fn with_progress(mut self, on: bool) -> Self {
+        self.progress = on;
+        self
     }
 
     /// The observers see the steps through `source`.
@@ -668,6 +682,9 @@ pub fn drive_quasi_static<const D: usize, M: Material<D>>(
     let watch = &mut Watch::observers(observers);
     Loop::quasi_static(sim, settings, (start, load_steps), watch)?.run(sim, watch)
 }
+
+/// At most this often a progress line inside a quasi-static load step.
+const PROGRESS_SECONDS: f64 = 5.0;
 
 /// Offers a committed step to the observers that want it; every observer's schedule
 /// includes the last step of each stage (`stage_end`) as it does the run's (`last`).

@@ -13,5 +13,7 @@ pub mod verlet;
 
 pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};
 pub use forces::{bond_force, ForceEngine};
-pub use quasi_static::{EquilibriumMethod, LoadStepReport, QuasiStatic, QuasiStaticSettings};
+pub use quasi_static::{
+    AdrMass, EquilibriumMethod, LoadStepReport, QuasiStatic, QuasiStaticSettings,
+};
 pub use verlet::{Fields, Simulation, StepError};

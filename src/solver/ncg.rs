@@ -7,7 +7,14 @@
 //! directional derivative Π'(u + αd)·d = −r(u + αd)·d (Shewchuk 1994, "An introduction to the
 //! conjugate gradient method without the agonizing pain", algorithm B5): only force
 //! evaluations, no energy. The residual r = V (f + b) on the free components is the negative
-//! gradient. Bonds do not break during a minimisation (the caller freezes the damage state).
+//! gradient. The secant iteration stops once the directional derivative has fallen to 1 % of
+//! its value at α = 0 (|η(α)| ≤ 10⁻² |η(0)|: the strong-Wolfe curvature condition with
+//! σ = 0.01, Nocedal & Wright 2006, §3.1 and §5.2, tighter than the σ < ½ nonlinear CG asks
+//! for), or when a secant step changes α by less than 10⁻⁶ of it. On a nearly quadratic Π the
+//! first secant step lands there, so an iteration costs two force evaluations (the probe and
+//! the step) instead of the three that confirming the step to 10⁻⁶ took
+//! (`QuasiStaticSettings::exact_line_search` keeps that search). The minimiser stops on the
+//! caller's residual test either way: the equilibria satisfy the same tolerance. Bonds do not break during a minimisation (the caller freezes the damage state).
 
 use super::{Simulation, StepError};
 use crate::material::Material;
@@ -22,11 +29,16 @@ pub struct Ncg<const D: usize> {
     /// 1/(V_i λ_i) per node: the inverse of the diagonal stiffness bound.
     inverse_diagonal: Vec<f64>,
     direction: Vec<Vector<D>>,
+    exact_line_search: bool,
 }
 
 impl<const D: usize> Ncg<D> {
     /// `stiffness`: λ_i, the diagonal bound per node (force density per displacement).
-    pub fn new<M: Material<D>>(sim: &Simulation<D, M>, stiffness: &[f64]) -> Self {
+    pub fn new<M: Material<D>>(
+        sim: &Simulation<D, M>,
+        stiffness: &[f64],
+        exact_line_search: bool,
+    ) -> Self {
         let inverse_diagonal = stiffness
             .iter()
             .zip(&sim.body.volumes)
@@ -35,17 +47,18 @@ impl<const D: usize> Ncg<D> {
         Ncg {
             inverse_diagonal,
             direction: vec![Vector::zeros(); sim.body.len()],
+            exact_line_search,
         }
     }
 
-    /// Minimises from the current state until `converged(sim)`; returns the force
+    /// Minimises from the current state until `converged(sim, evaluations so far)`; returns the force
     /// evaluations used, or the error of a failed evaluation. `max_evaluations` bounds the
     /// work; on reaching it the state is the best found so far and `Ok(None)` is returned.
     pub fn minimise<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
         max_evaluations: u64,
-        converged: impl Fn(&Simulation<D, M>) -> bool,
+        mut converged: impl FnMut(&Simulation<D, M>, u64) -> bool,
     ) -> Result<Option<u64>, StepError> {
         let n_free = sim
             .constrained_mask
@@ -59,7 +72,7 @@ impl<const D: usize> Ncg<D> {
         self.direction.clone_from(&s);
         let mut delta_new = dot(&r, &s);
         let mut since_restart = 0usize;
-        while !converged(sim) {
+        while !converged(sim, evaluations) {
             if evaluations >= max_evaluations {
                 return Ok(None);
             }
@@ -72,6 +85,7 @@ impl<const D: usize> Ncg<D> {
             }
             let sigma0 = 1e-3;
             let (mut alpha_a, mut eta_a) = (0.0, -dot(&r, d));
+            let eta0 = eta_a;
             self.shift(sim, d, sigma0)?;
             evaluations += 1;
             let (mut alpha_b, mut eta_b) = (sigma0, -dot(&self.residual(sim), d));
@@ -87,6 +101,12 @@ impl<const D: usize> Ncg<D> {
                 (alpha_b, eta_b) = (alpha, -dot(&self.residual(sim), d));
                 // Converged when the last move is a millionth of the step taken.
                 if step.abs() <= 1e-6 * alpha.abs() {
+                    break;
+                }
+                // Or, unless exact, once the directional derivative is 1 % of its start: on a
+                // nearly quadratic Π the first secant step lands there, and a third force
+                // evaluation would only confirm it.
+                if !self.exact_line_search && eta_b.abs() <= 1e-2 * eta0.abs() {
                     break;
                 }
             }

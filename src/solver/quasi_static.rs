@@ -16,6 +16,29 @@
 //!   K^n_kk = −(F^n_k/λ − F^{n−1}_k/λ) / v^{n−½}_k, and c_n = 0 when the quotient is not
 //!   positive (softening bonds); c_n ≤ 2 (the critically damped update of the stiffest mode).
 //!
+//! Fictitious masses (`AdrMass`). Kilic & Madenci's λ_i bounds, by Gershgorin's circle
+//! theorem, every eigenvalue of λ⁻¹K by 4/Δt², the stability limit ω_max Δt < 2 of the
+//! central-difference update (Underwood 1983). The bound is loose: the row sum counts every
+//! neighbour at full weight, while in the highest mode of a peridynamic body neighbours move
+//! partly in phase. Convergence is set by the lowest frequency: per iteration the error
+//! shrinks by about 1 − ω_min at the damping c ≈ 2ω_min the estimate above tracks (Underwood
+//! 1983; Kilic & Madenci 2010). Masses scaled by a common factor s < 1 multiply every
+//! ω by 1/√s, and the iterations by √s, as long as ω_max stays below 2. `AdrMass::Spectral`
+//! (the default) measures ρ = λ_max(λ_G⁻¹K) for the Gershgorin masses λ_G by power iteration
+//! on the intact body in its reference configuration (40 products Kx, each the force change
+//! of a displacement εx with ε = 10⁻⁹ of the body's size: linear to about 10⁻⁶; ρ is the
+//! Rayleigh quotient in the inner product weighted by λ_G V, in which λ_G⁻¹K is symmetric, so
+//! it approaches the largest eigenvalue from below), and relaxes with λ = λ_G · 1.5ρ/4: the
+//! largest ω² is then 4/1.5 by the measurement, and below 4 for a measurement up to a third
+//! low. Damage only removes stiffness (for a bond-based model each broken bond takes a
+//! positive semi-definite term out of K, and by Weyl's inequality no eigenvalue grows); the
+//! geometric stiffening of a stretched bond is of the order of its stretch. A relaxation that
+//! fails anyway (diverges, or does not converge in `max_iterations`) is taken again from its
+//! start with the Gershgorin masses, which stay in use. The masses change the path to
+//! equilibrium, not the equilibrium: the iteration's fixed point is F = 0 on the free
+//! components, judged by the same relative residual and tolerance; intermediate equilibria,
+//! and with them the bonds each decision breaks, differ only within the tolerance.
+//!
 //! F is the out-of-balance force density f + b on the free degrees of freedom; constrained
 //! ones keep their prescribed values. Equilibrium: the relative residual
 //! ‖V (f + b)‖ over free components ÷ (‖V (f + b)‖ over constrained components + ‖V b‖ over
@@ -27,6 +50,10 @@
 //! t_{k−1}) (u_k − u_{k−1}) on the free components): in an elastic stretch of the loading the
 //! start is then nearly the equilibrium, and the relaxation only removes the difference. The
 //! equilibrium it reaches is the same (the damage state is frozen while it relaxes).
+//!
+//! Progress: with a `Ticker` set (`peridyn run` without `--quiet`), a load step that runs
+//! longer than a few seconds prints, at most every few seconds, its equilibria so far, its
+//! iterations, the residual and the bonds broken in the step.
 //!
 //! While the body relaxes no bond may break or soften: every node is protected (the no-fail
 //! mechanism), so the damage state is the one of the last decision (a secant iteration for
@@ -47,7 +74,7 @@ use crate::material::Material;
 use crate::math::Vector;
 use crate::state::State;
 use rayon::prelude::*;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Parameters of the quasi-static solver (deck `[solver] type = "quasi_static"`).
 #[derive(Debug, Clone)]
@@ -66,6 +93,22 @@ pub struct QuasiStaticSettings {
     pub max_broken_per_step: Option<u64>,
     /// How many times a load step may be halved.
     pub max_splits: u32,
+    /// How ADR's fictitious masses are bounded (the spectral estimate by default).
+    pub mass: AdrMass,
+    /// NCG's line search to a relative change of 10⁻⁶ in the step (as before 2026-11) instead
+    /// of stopping once the directional derivative has fallen to 1 % of its start.
+    pub exact_line_search: bool,
+}
+
+/// How ADR bounds its fictitious masses from the stiffness (both keep the central-difference
+/// update stable: ω_max Δt < 2, see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AdrMass {
+    /// λ_i = k_i/2: Gershgorin's bound of the stiffness row (Kilic & Madenci 2010).
+    Gershgorin,
+    /// The Gershgorin masses scaled down to the measured largest eigenvalue of λ⁻¹K (with a
+    /// margin), falling back to Gershgorin's when a relaxation fails with them.
+    Spectral,
 }
 
 /// How a load step finds equilibrium.
@@ -87,6 +130,8 @@ impl Default for QuasiStaticSettings {
             max_equilibria: 1000,
             max_broken_per_step: None,
             max_splits: 8,
+            mass: AdrMass::Spectral,
+            exact_line_search: false,
         }
     }
 }
@@ -102,6 +147,38 @@ pub struct LoadStepReport {
     pub broken: u64,
     /// Relative residual at the end.
     pub residual: f64,
+}
+
+/// Power iterations measuring the largest eigenvalue of λ⁻¹K (`AdrMass::Spectral`).
+const SPECTRAL_ITERATIONS: usize = 40;
+
+/// The spectral masses make the measured largest ω² = 4 / `SPECTRAL_MARGIN`: a measurement up
+/// to a third below the true largest eigenvalue still leaves ω_max < 2.
+const SPECTRAL_MARGIN: f64 = 1.5;
+
+/// One relaxation taken by `QuasiStatic::probe`.
+#[derive(Debug, Clone, Copy)]
+pub struct Probe {
+    /// Iterations (ADR) or force evaluations (NCG) taken: the budget when not converged.
+    pub iterations: u64,
+    pub converged: bool,
+    /// Relative residual at the start and at the end.
+    pub start_residual: f64,
+    pub residual: f64,
+    pub seconds: f64,
+}
+
+impl Probe {
+    /// The iterations to reach `tolerance`: those taken when converged, else extrapolated at
+    /// the mean rate of decrease so far (`None` when the residual did not decrease).
+    pub fn iterations_to(&self, tolerance: f64) -> Option<f64> {
+        if self.converged {
+            return Some(self.iterations as f64);
+        }
+        let gained = (self.start_residual / self.residual).ln();
+        let needed = (self.start_residual / tolerance).ln();
+        (gained > 0.0 && needed.is_finite()).then(|| self.iterations as f64 * needed / gained)
+    }
 }
 
 /// The quasi-static driver of one simulation: the fictitious masses and the ADR velocities.
@@ -131,6 +208,103 @@ pub struct QuasiStatic<const D: usize> {
     pub predictor: bool,
     /// Total ADR iterations.
     pub iterations: u64,
+    /// Progress lines on stderr inside long load steps (off unless set).
+    pub ticker: Ticker,
+    /// λ_i from the Gershgorin bound (× `mass_factor`): what `mass` falls back to when a
+    /// relaxation with the spectral mass does not converge.
+    gershgorin: Vec<f64>,
+    /// The spectral mass is still to be measured (at the first relaxation).
+    spectral_pending: bool,
+    /// `mass` is the spectral one (below the Gershgorin bound).
+    spectral: bool,
+    /// The largest eigenvalue of λ⁻¹K measured with the Gershgorin mass (0 before).
+    pub spectral_radius: f64,
+    /// Force evaluations spent measuring it (not counted as iterations).
+    pub setup_evaluations: u64,
+}
+
+/// Progress inside a load step: a line on stderr at most every `every` (none when `None`), so
+/// that a load step in which a crack runs, with its thousands of iterations, does not look
+/// hung; and a closing line for a load step that printed one.
+#[derive(Debug, Clone)]
+pub struct Ticker {
+    pub every: Option<Duration>,
+    last: Instant,
+    started: Instant,
+    printed: bool,
+    /// The load step in progress: its number and load parameter.
+    step: u64,
+    load: f64,
+    /// What the step took before the relaxation in progress.
+    done: LoadStepReport,
+}
+
+impl Default for Ticker {
+    fn default() -> Self {
+        Ticker {
+            every: None,
+            last: Instant::now(),
+            started: Instant::now(),
+            printed: false,
+            step: 0,
+            load: 0.0,
+            done: LoadStepReport::default(),
+        }
+    }
+}
+
+impl Ticker {
+    /// A ticker printing at most every `seconds`.
+    pub fn every(seconds: f64) -> Self {
+        Ticker {
+            every: Some(Duration::from_secs_f64(seconds)),
+            ..Ticker::default()
+        }
+    }
+
+    fn begin(&mut self, step: u64, load: f64) {
+        (self.step, self.load, self.printed) = (step, load, false);
+        self.done = LoadStepReport::default();
+        self.started = Instant::now();
+        self.last = self.started;
+    }
+
+    /// Inside a relaxation that has taken `iterations` so far, at `residual`.
+    fn tick(&mut self, iterations: u64, residual: f64) {
+        let Some(every) = self.every else { return };
+        if self.last.elapsed() < every {
+            return;
+        }
+        self.last = Instant::now();
+        self.printed = true;
+        let d = &self.done;
+        eprintln!(
+            "  load step {} (load {:.4e}): {} s, equilibrium {}, {} iterations, residual {residual:.2e}, {} bonds broken in the step",
+            self.step,
+            self.load,
+            self.started.elapsed().as_secs(),
+            d.equilibria,
+            d.iterations + iterations,
+            d.broken / 2
+        );
+    }
+
+    fn end(&mut self, report: &LoadStepReport, committed: bool) {
+        if self.every.is_none() || !self.printed {
+            return;
+        }
+        eprintln!(
+            "  load step {} (load {:.4e}) {} in {:.1} s: {} equilibria, {} iterations, residual {:.2e}, {} bonds broken",
+            self.step,
+            self.load,
+            if committed { "committed" } else { "broke too many bonds: halved" },
+            self.started.elapsed().as_secs_f64(),
+            report.equilibria,
+            report.iterations,
+            report.residual,
+            report.broken / 2
+        );
+    }
 }
 
 /// The bonds' work record as the last decision left it (module doc): their history words and
@@ -206,7 +380,11 @@ impl<const D: usize> QuasiStatic<D> {
             .into_iter()
             .map(|k| settings.mass_factor * 0.5 * k)
             .collect();
-        let ncg = (settings_method == EquilibriumMethod::Ncg).then(|| Ncg::new(sim, &mass));
+        let ncg = (settings_method == EquilibriumMethod::Ncg)
+            .then(|| Ncg::new(sim, &mass, settings.exact_line_search));
+        let spectral =
+            settings_method == EquilibriumMethod::Adr && settings.mass == AdrMass::Spectral;
+        let gershgorin = mass.clone();
         QuasiStatic {
             settings,
             mass,
@@ -221,6 +399,12 @@ impl<const D: usize> QuasiStatic<D> {
             previous: None,
             predictor: true,
             iterations: 0,
+            ticker: Ticker::default(),
+            gershgorin,
+            spectral_pending: spectral,
+            spectral: false,
+            spectral_radius: 0.0,
+            setup_evaluations: 0,
         }
     }
 
@@ -260,21 +444,10 @@ impl<const D: usize> QuasiStatic<D> {
         }
     }
 
-    /// Applies the load at t1, relaxes, lets the damage law decide and re-relaxes until it
-    /// breaks nothing; books the external work and commits the step. `None` (the state left
-    /// half-way) when more than `abort_above` bond halves broke.
-    fn load_step<M: Material<D>>(
-        &mut self,
-        sim: &mut Simulation<D, M>,
-        t1: f64,
-        abort_above: Option<u64>,
-    ) -> Result<Option<LoadStepReport>, StepError> {
-        let started = Instant::now();
-        let (t0, u0, load0) = (
-            sim.state.time,
-            sim.state.u.clone(),
-            self.applied_forces(sim),
-        );
+    /// Moves the body to the start of a load step ending at `t1`: the predictor's
+    /// extrapolated increment on the free components, the boundary values at t1.
+    fn start_step<M: Material<D>>(&self, sim: &mut Simulation<D, M>, t1: f64) {
+        let t0 = sim.state.time;
         if let Some((t_prev, u_prev)) = self.previous.as_ref().filter(|_| self.predictor) {
             // The last step's increment, scaled to this one, on the free components.
             let ratio = (t1 - t0) / (t0 - t_prev);
@@ -298,7 +471,67 @@ impl<const D: usize> QuasiStatic<D> {
         sim.loading
             .apply_displacements(&sim.body, &mut sim.state, t1);
         sim.state.time = t1;
+    }
+
+    /// Takes the next load step's first relaxation (no decision, no bond breaks) with at most
+    /// `budget` iterations, for `peridyn check`'s estimate; the state is left at the end of it
+    /// and the predictor's memory set as a committed step would set it.
+    pub fn probe<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        budget: u64,
+    ) -> Result<Probe, StepError> {
+        let started = Instant::now();
+        let (t0, u0) = (sim.state.time, sim.state.u.clone());
+        let t1 = t0 + self.increment;
+        self.start_step(sim, t1);
+        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        let max = std::mem::replace(&mut self.settings.max_iterations, budget);
+        let result = (|| {
+            sim.refresh_forces()?;
+            let start_residual = self.residual(sim).0;
+            let relaxed = self.relax(sim);
+            Ok::<_, StepError>((start_residual, relaxed))
+        })();
+        self.settings.max_iterations = max;
+        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        let (start_residual, relaxed) = result?;
+        let residual = self.residual(sim).0;
+        let (iterations, converged) = match relaxed {
+            Ok(n) => (n, true),
+            Err(StepError::NotConverged { .. }) if residual.is_finite() => (budget, false),
+            Err(e) => return Err(e),
+        };
+        self.largest_load = self.largest_load.max(self.residual(sim).2);
+        self.previous = Some((t0, u0));
+        sim.state.step += 1;
+        Ok(Probe {
+            iterations,
+            converged,
+            start_residual,
+            residual,
+            seconds: started.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Applies the load at t1, relaxes, lets the damage law decide and re-relaxes until it
+    /// breaks nothing; books the external work and commits the step. `None` (the state left
+    /// half-way) when more than `abort_above` bond halves broke.
+    fn load_step<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        t1: f64,
+        abort_above: Option<u64>,
+    ) -> Result<Option<LoadStepReport>, StepError> {
+        let started = Instant::now();
+        let (t0, u0, load0) = (
+            sim.state.time,
+            sim.state.u.clone(),
+            self.applied_forces(sim),
+        );
+        self.start_step(sim, t1);
         let mut report = LoadStepReport::default();
+        self.ticker.begin(sim.state.step + 1, t1);
         // Forces at the new boundary values, nothing deciding.
         std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
         let mut record = WorkRecord::of(&sim.state);
@@ -306,6 +539,7 @@ impl<const D: usize> QuasiStatic<D> {
             sim.refresh_forces()?;
             loop {
                 report.equilibria += 1;
+                self.ticker.done = report;
                 report.iterations += self.relax(sim)?;
                 record.restore(&mut sim.state);
                 // The decision, with the user's no-fail sets.
@@ -334,8 +568,10 @@ impl<const D: usize> QuasiStatic<D> {
         std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
         self.iterations += report.iterations;
         if !result? {
+            self.ticker.end(&report, false);
             return Ok(None);
         }
+        self.ticker.end(&report, true);
         self.largest_load = self.largest_load.max(self.residual(sim).2);
         sim.state.external_work += self.step_work(sim, &u0, &load0);
         self.previous = Some((t0, u0));
@@ -351,7 +587,12 @@ impl<const D: usize> QuasiStatic<D> {
         let tol = self.settings.tolerance;
         if let Some(ncg) = self.ncg.as_mut() {
             let (largest, max) = (self.largest_load, self.settings.max_iterations);
-            let found = ncg.minimise(sim, max, |s| relative_residual(s, largest).0 <= tol)?;
+            let ticker = &mut self.ticker;
+            let found = ncg.minimise(sim, max, |s, evaluations| {
+                let residual = relative_residual(s, largest).0;
+                ticker.tick(evaluations, residual);
+                residual <= tol
+            })?;
             return match found {
                 Some(evaluations) => Ok(evaluations),
                 None => {
@@ -360,6 +601,140 @@ impl<const D: usize> QuasiStatic<D> {
                 }
             };
         }
+        if self.spectral_pending {
+            self.spectral_pending = false;
+            self.measure_spectrum(sim)?;
+        }
+        if !self.spectral {
+            return self.adr(sim);
+        }
+        // A relaxation that fails with the spectral masses (the measurement missed a mode, or
+        // a contact stiffened the body) is taken again from its start with Gershgorin's.
+        let saved = sim.state.clone();
+        match self.adr(sim) {
+            Ok(n) => Ok(n),
+            Err(_) => {
+                sim.state = saved;
+                self.mass.clone_from(&self.gershgorin);
+                self.spectral = false;
+                self.adr(sim)
+            }
+        }
+    }
+
+    /// The largest eigenvalue ρ of λ⁻¹K for the Gershgorin masses λ, by power iteration
+    /// on the intact body at its reference configuration (a fresh state: the same number
+    /// for a run and its continuation from a checkpoint), K x from the force change of a small
+    /// displacement εx of the free components; then the masses scaled by
+    /// `SPECTRAL_MARGIN` ρ / 4 (at most 1, at least 1/16). Leaves the state as it was.
+    fn measure_spectrum<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+    ) -> Result<(), StepError> {
+        let history_words = sim.state.history.len() / sim.bonds.len().max(1);
+        let fresh = State::new(&sim.body, &sim.bonds, history_words);
+        let saved = std::mem::replace(&mut sim.state, fresh);
+        let result = self.power_iteration(sim);
+        sim.state = saved;
+        let (rho, evaluations) = result?;
+        self.setup_evaluations += evaluations;
+        self.spectral_radius = rho;
+        let factor = (SPECTRAL_MARGIN * rho / 4.0).clamp(1.0 / 16.0, 1.0);
+        if rho.is_finite() && factor < 0.95 {
+            self.mass.iter_mut().for_each(|m| *m *= factor);
+            self.spectral = true;
+        }
+        Ok(())
+    }
+
+    /// `measure_spectrum`'s iteration from the current (reference) state: ρ and the force
+    /// evaluations it took; the state is left displaced.
+    fn power_iteration<M: Material<D>>(
+        &self,
+        sim: &mut Simulation<D, M>,
+    ) -> Result<(f64, u64), StepError> {
+        let n = sim.body.len();
+        let mask = sim.constrained_mask.clone();
+        let free = |i: usize, k: usize| !mask[i][k] && self.mass[i] > 0.0;
+        // The length scale: the body's bounding box; a displacement of 1e-9 of it stretches
+        // a bond a thousand times shorter by 1e-6 at most, far inside the linear range.
+        let (lo, hi) = sim.body.positions.iter().fold(
+            (
+                Vector::<D>::repeat(f64::INFINITY),
+                Vector::<D>::repeat(f64::NEG_INFINITY),
+            ),
+            |(lo, hi), x| (lo.inf(x), hi.sup(x)),
+        );
+        let eps = 1e-9 * (hi - lo).norm();
+        if !(eps > 0.0) {
+            return Ok((0.0, 0));
+        }
+        sim.refresh_forces()?;
+        let mut evaluations = 1;
+        let f0: Vec<Vector<D>> = (0..n)
+            .map(|i| sim.state.force[i] + sim.state.body_force[i])
+            .collect();
+        let u0 = sim.state.u.clone();
+        // A start with every mode in it: a fixed pseudo-random pattern in [-1, 1].
+        let mut x: Vec<Vector<D>> = (0..n)
+            .map(|i| {
+                Vector::<D>::from_fn(|k, _| {
+                    if free(i, k) {
+                        let h = ((i * D + k) as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                        ((h >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect();
+        let weight: Vec<f64> = (0..n).map(|i| self.mass[i] * sim.body.volumes[i]).collect();
+        let mut rho = 0.0f64;
+        for _ in 0..SPECTRAL_ITERATIONS {
+            {
+                let (positions, s) = (&sim.body.positions, &mut sim.state);
+                for i in 0..n {
+                    s.u[i] = u0[i] + x[i] * eps;
+                    s.current[i] = positions[i] + s.u[i];
+                }
+            }
+            sim.refresh_forces()?;
+            evaluations += 1;
+            let s = &sim.state;
+            let y: Vec<Vector<D>> = (0..n)
+                .map(|i| {
+                    Vector::<D>::from_fn(|k, _| {
+                        if free(i, k) {
+                            let f = s.force[i][k] + s.body_force[i][k] - f0[i][k];
+                            -f / (eps * self.mass[i])
+                        } else {
+                            0.0
+                        }
+                    })
+                })
+                .collect();
+            // The Rayleigh quotient in the inner product weighted by λ_i V_i, in which
+            // λ⁻¹K is symmetric: never above the largest eigenvalue.
+            let (mut num, mut den) = (0.0, 0.0);
+            for i in 0..n {
+                num += weight[i] * x[i].dot(&y[i]);
+                den += weight[i] * x[i].dot(&x[i]);
+            }
+            if den > 0.0 && (num / den).is_finite() {
+                rho = rho.max(num / den);
+            }
+            let largest = y.iter().map(|v| v.amax()).fold(0.0, f64::max);
+            if !(largest > 0.0 && largest.is_finite()) {
+                break;
+            }
+            x = y.into_iter().map(|v| v / largest).collect();
+        }
+        Ok((rho, evaluations))
+    }
+
+    /// One ADR relaxation (see the module docs) with the masses in use.
+    fn adr<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
+        let tol = self.settings.tolerance;
         let (mut residual, ..) = self.residual(sim);
         let start_residual = residual;
         let mut n = 0u64;
@@ -415,6 +790,7 @@ impl<const D: usize> QuasiStatic<D> {
             sim.refresh_forces()?;
             n += 1;
             residual = self.residual(sim).0;
+            self.ticker.tick(n, residual);
             if !residual.is_finite() || residual > 1e6 * start_residual.max(tol) {
                 sim.check_finite()?;
                 let (_, node, _) = self.residual(sim);

@@ -14,7 +14,7 @@ use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Pmb};
 use peridyn::math::Vector;
 use peridyn::run::{drive, drive_quasi_static, RunError};
-use peridyn::solver::{EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
+use peridyn::solver::{AdrMass, EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
 use std::path::Path;
 
 /// A 2D plane-stress PMB plate 20 mm × 40 mm (Δx = 0.5 mm, δ = 3Δx) between two grip layers
@@ -92,6 +92,22 @@ fn patch_error_with<M: Material<2>>(
     eps: [[f64; 2]; 2],
     method: EquilibriumMethod,
 ) -> (f64, u64) {
+    let settings = QuasiStaticSettings {
+        method,
+        tolerance: 1e-10,
+        ..Default::default()
+    };
+    let (error, iterations, _) = patch_error_settings(material, eps, settings);
+    (error, iterations)
+}
+
+/// `patch_error_with` with the given settings; also the measured largest eigenvalue of λ⁻¹K
+/// for Gershgorin's masses (0 when not measured).
+fn patch_error_settings<M: Material<2>>(
+    material: M,
+    eps: [[f64; 2]; 2],
+    settings: QuasiStaticSettings,
+) -> (f64, u64, f64) {
     let (dx, m) = (0.5e-3, 3.0);
     let (body, bonds) = common::lattice_body::<2>(40, dx, m, PartialVolume::Hhb);
     let (side, layer) = (40.0 * dx, 2.0 * m * dx);
@@ -129,11 +145,7 @@ fn patch_error_with<M: Material<2>>(
         1.0,
     )
     .unwrap();
-    let settings = QuasiStaticSettings {
-        method,
-        tolerance: 1e-10,
-        ..Default::default()
-    };
+    let method = settings.method;
     let mut solver = QuasiStatic::new(&sim, settings, 1.0);
     let report = solver.advance(&mut sim, 1.0).unwrap();
     let scale = (0..sim.body.len())
@@ -149,7 +161,9 @@ fn patch_error_with<M: Material<2>>(
         report.residual,
         error / scale
     );
-    (error / scale, report.iterations)
+    // The residual of the state left, computed again: within the tolerance.
+    assert!(solver.residual(&sim).0 <= 1e-10);
+    (error / scale, report.iterations, solver.spectral_radius)
 }
 
 #[test]
@@ -184,6 +198,150 @@ fn conjugate_gradients_reproduce_a_homogeneous_deformation_exactly() {
         let lps = common::lps(plane, e, 0.3, h);
         assert!(patch_error_with(lps, eps, EquilibriumMethod::Ncg).0 < 1e-6);
     }
+}
+
+/// ADR's spectral masses (the default) reach the exact equilibrium as Gershgorin's do, in
+/// fewer iterations: the measured largest eigenvalue ρ of λ⁻¹K (Gershgorin's λ) lies below
+/// Gershgorin's bound 4, so the masses shrink by 1.5 ρ/4 and every frequency grows by the
+/// square root of its inverse. (A relaxation that failed with them would fall back to
+/// Gershgorin's masses and take at least as many iterations as they do.)
+#[test]
+fn spectral_masses_reach_the_same_equilibrium_in_fewer_iterations() {
+    let (e, h) = (1e9, 1.5e-3);
+    let plane = Dimensionality::PlaneStress;
+    let biaxial = [[2e-4, 0.0], [0.0, 1e-4]];
+    let with = |mass: AdrMass| QuasiStaticSettings {
+        tolerance: 1e-10,
+        mass,
+        ..Default::default()
+    };
+    let pmb = || common::pmb(plane, e, h, MicromodulusProfile::Constant);
+    let lps = || common::lps(plane, e, 0.3, h);
+    for (name, gershgorin, spectral) in [
+        (
+            "PMB",
+            patch_error_settings(pmb(), biaxial, with(AdrMass::Gershgorin)),
+            patch_error_settings(pmb(), biaxial, with(AdrMass::Spectral)),
+        ),
+        (
+            "LPS",
+            patch_error_settings(lps(), biaxial, with(AdrMass::Gershgorin)),
+            patch_error_settings(lps(), biaxial, with(AdrMass::Spectral)),
+        ),
+    ] {
+        println!(
+            "{name}: Gershgorin {} iterations, spectral {} (ρ = {:.3})",
+            gershgorin.1, spectral.1, spectral.2
+        );
+        assert!(gershgorin.0 < 1e-6 && spectral.0 < 1e-6);
+        assert_eq!(gershgorin.2, 0.0);
+        assert!(spectral.2 > 0.1 && spectral.2 < 4.0, "ρ = {}", spectral.2);
+        assert!(
+            (spectral.1 as f64) < 0.85 * gershgorin.1 as f64,
+            "{name}: {} against {}",
+            spectral.1,
+            gershgorin.1
+        );
+    }
+}
+
+/// A crack run through the notched plate in load steps: the reaction after every committed
+/// step, the bond halves broken by then, and the force evaluations (ADR iterations or NCG
+/// evaluations) of the whole run.
+fn crack_run(settings: QuasiStaticSettings, load_steps: u64) -> (Vec<(f64, u64)>, u64) {
+    let ld = notched_deck(load_steps);
+    let (mut sim, _) = common::pmb_deck_simulation(&ld).unwrap();
+    let nominal = 1.0 / load_steps as f64;
+    let mut solver = QuasiStatic::new(&sim, settings, nominal);
+    let top = sim.body.node_set("top").unwrap();
+    let mut curve = Vec::new();
+    for k in 1..=load_steps {
+        let target = k as f64 * nominal;
+        while sim.state.time < target {
+            let report = solver.advance(&mut sim, target).unwrap();
+            assert!(report.residual <= solver.settings.tolerance);
+            curve.push((sim.reaction(&top)[1], sim.state.broken));
+        }
+    }
+    (curve, solver.iterations)
+}
+
+/// The faster relaxations (ADR's spectral masses, NCG's shorter line search) trace the same
+/// fracture as the previous ones (Gershgorin's masses, the line search to 10⁻⁶): the same
+/// committed steps, the same bond halves broken after each, and reactions that differ by
+/// no more than the tolerance's effect (the equilibria differ within the relative residual
+/// 10⁻⁶ of the deck's default tolerance), in fewer force evaluations.
+#[test]
+fn faster_relaxations_trace_the_same_fracture() {
+    let (before, after) = (
+        QuasiStaticSettings {
+            mass: AdrMass::Gershgorin,
+            ..notched_settings()
+        },
+        notched_settings(),
+    );
+    let ncg = |exact| QuasiStaticSettings {
+        method: EquilibriumMethod::Ncg,
+        exact_line_search: exact,
+        ..notched_settings()
+    };
+    for (name, before, after) in [("ADR", before, after), ("NCG", ncg(true), ncg(false))] {
+        let ((old, old_work), (new, new_work)) = (crack_run(before, 10), crack_run(after, 10));
+        let peak = old.iter().map(|p| p.0).fold(0.0, f64::max);
+        let worst = old
+            .iter()
+            .zip(&new)
+            .map(|(a, b)| (a.0 - b.0).abs())
+            .fold(0.0, f64::max);
+        println!(
+            "{name}: {} committed steps, {} bond halves broken, peak {peak:.5} N, largest reaction difference {worst:.2e} N; {old_work} → {new_work} force evaluations",
+            old.len(),
+            old.last().unwrap().1,
+        );
+        assert_eq!(old.len(), new.len());
+        for (a, b) in old.iter().zip(&new) {
+            assert_eq!(a.1, b.1, "bond halves broken: {old:?} against {new:?}");
+        }
+        assert!(worst <= 1e-4 * peak, "{worst} of {peak}");
+        assert!(new_work < old_work);
+    }
+}
+
+/// The notched deck's solver settings.
+fn notched_settings() -> QuasiStaticSettings {
+    solver_settings(&notched_deck(10).deck)
+        .quasi_static
+        .unwrap()
+}
+
+/// `peridyn check` estimates a quasi-static run from its first two load steps, and the
+/// estimate of an elastic run is what the run takes: the iterations within a factor 1.5.
+#[test]
+fn check_estimates_the_iterations_of_an_elastic_quasi_static_run() {
+    let ld = plate_deck(
+        4e-6,
+        1.0,
+        "[solver]\ntype = \"quasi_static\"\nload_steps = 4\ntolerance = 1e-6",
+        "",
+    );
+    let (report, time) = peridyn::run::check_timed(&ld, Some(1)).unwrap();
+    let time = time.expect("a quasi-static run is timed");
+    let basis = time.quasi_static.expect("with its basis");
+    assert_eq!(time.steps, 4);
+    let estimated = basis.first + 3.0 * basis.later;
+    let shown = time.to_string();
+    println!("{shown}");
+    assert!(shown.contains("4 load steps"), "{shown}");
+    assert!(basis.seconds_per_iteration > 0.0);
+    let (mut sim, _) = common::pmb_deck_simulation(&ld).unwrap();
+    let settings = solver_settings(&ld.deck).quasi_static.unwrap();
+    let mut solver = QuasiStatic::new(&sim, settings, report.dt);
+    for k in 1..=4 {
+        solver.advance(&mut sim, k as f64 * report.dt).unwrap();
+    }
+    let taken = solver.iterations as f64;
+    println!("estimated {estimated:.0} iterations, taken {taken:.0}");
+    assert!(estimated < 1.5 * taken && taken < 1.5 * estimated);
 }
 
 #[test]
