@@ -176,17 +176,32 @@ pub fn case_dir(case: &LoadedCase, opts: &ValidateOptions) -> PathBuf {
     opts.out_dir.join(Layout::key(case))
 }
 
-/// Writes a full measurement and the case's figures where the report finds them.
+/// Writes a full measurement and the case's figures where the report finds them. Runs of the
+/// series this invocation did not reach (`--first`) keep their earlier measurement.
 pub fn keep_full(
     case: &LoadedCase,
     measured: &Measured,
     layout: &Layout,
     opts: &ValidateOptions,
 ) -> Result<(), String> {
-    measured.write(&layout.measured_file(case))?;
+    let path = layout.measured_file(case);
+    let series = case.series_values(false);
+    let mut kept = measured.clone();
+    if let Some(earlier) = Measured::read(&path)? {
+        for run in earlier.runs {
+            let reached = kept.runs.iter().any(|r| r.series == run.series);
+            if !reached && run.series.is_some_and(|v| series.contains(&v)) {
+                kept.wall_minutes += run.wall_minutes;
+                kept.runs.push(run);
+            }
+        }
+        let position = |v: Option<f64>| series.iter().position(|s| Some(*s) == v);
+        kept.runs.sort_by_key(|r| position(r.series));
+    }
+    kept.write(&path)?;
     figures::draw(
         case,
-        measured,
+        &kept,
         &case_dir(case, opts).join("runs"),
         &layout.docs().join("validation"),
     )?;
@@ -339,7 +354,13 @@ pub fn validate(
                     write_report(layout).map(|_| ())
                 }
             })?;
-            let rows = verdict::judge_case(&case, Some(&measured), opts.reduced);
+            // A full run judges what was kept: with `--first`, also the finer runs of before.
+            let kept = if opts.reduced {
+                measured
+            } else {
+                Measured::read(&layout.measured_file(&case))?.unwrap_or(measured)
+            };
+            let rows = verdict::judge_case(&case, Some(&kept), opts.reduced);
             done.cases.push((layout.relative(file), rows));
         }
     }
