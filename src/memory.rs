@@ -7,6 +7,16 @@ pub fn bytes_per_node(dim: usize, point_bytes: usize) -> usize {
     8 * dim * 6 + 8 * 3 + 4 + 1 + 8 + 32 + 16 + point_bytes
 }
 
+/// Bytes a node of the whole grid costs while the grid is generated and ordered, before any
+/// family: position, cell size, volume, horizon, block and no-fail flag, held twice while the
+/// Morton reordering copies them. Every rank of a distributed run generates the whole grid and
+/// then keeps its share, so this — not `bytes_per_node` — is what a grid too large to generate
+/// is refused on; the whole run's need is checked against the families (one process) or
+/// predicted per rank (`peridyn check --ranks`).
+pub fn grid_bytes_per_node(dim: usize) -> usize {
+    2 * (8 * dim * 2 + 8 * 2 + 4 + 1)
+}
+
 /// Bytes a directed bond costs at its peak: while the families are built (neighbour and
 /// length held twice, 24 B) or during the run (the stored bytes per bond).
 pub fn bytes_per_bond(stored: usize) -> usize {
@@ -43,17 +53,28 @@ impl Estimate {
 
     /// Refuses an estimate larger than `available` bytes, saying both.
     pub fn fits(&self, available: Option<u64>) -> Result<(), String> {
-        match available {
-            Some(a) if self.bytes > a as f64 => Err(format!(
-                "this model needs about {:.1} GB ({:.3e} nodes, {:.3e} bonds, {:.0} per node) but the machine has {:.1} GB available; use a larger spacing or a smaller horizon ratio",
+        let Some(a) = available.filter(|&a| self.bytes > a as f64) else {
+            return Ok(());
+        };
+        let what = if self.bonds == 0.0 {
+            format!(
+                "generating this grid needs about {:.1} GB ({:.3e} nodes)",
+                self.bytes / 1e9,
+                self.nodes
+            )
+        } else {
+            format!(
+                "this model needs about {:.1} GB ({:.3e} nodes, {:.3e} bonds, {:.0} per node)",
                 self.bytes / 1e9,
                 self.nodes,
                 self.bonds / 2.0,
-                self.bonds / self.nodes.max(1.0),
-                a as f64 / 1e9
-            )),
-            _ => Ok(()),
-        }
+                self.bonds / self.nodes.max(1.0)
+            )
+        };
+        Err(format!(
+            "{what} but the machine has {:.1} GB available; use a larger spacing or a smaller horizon ratio",
+            a as f64 / 1e9
+        ))
     }
 }
 
@@ -69,6 +90,12 @@ mod tests {
         assert!(e.fits(None).is_ok());
         let msg = e.fits(Some(1_000_000_000)).unwrap_err();
         assert!(msg.contains("24.2 GB") && msg.contains("1.0 GB"), "{msg}");
+        let grid = Estimate::new(1e8, 0.0, grid_bytes_per_node(3), 0);
+        let msg = grid.fits(Some(1_000_000_000)).unwrap_err();
+        assert!(
+            msg.starts_with("generating this grid needs about 13.8 GB"),
+            "{msg}"
+        );
     }
 
     #[test]

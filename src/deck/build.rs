@@ -211,6 +211,7 @@ pub fn build_model_with<const D: usize>(
     let thickness = deck.thickness.unwrap_or(1.0);
     let available = memory::available_bytes();
     let per_node = memory::bytes_per_node(D, LARGEST_NODE_STATE);
+    let per_grid_node = memory::grid_bytes_per_node(D);
     let mut pores_record = None;
     let mut record_pores = |(pores, text)| {
         pores_record = text;
@@ -234,7 +235,7 @@ pub fn build_model_with<const D: usize>(
             let deepest = refine.iter().map(|r| r.levels).max().unwrap_or(0);
             let cells = lattice::cell_count(shape, D, *spacing).map_err(at)?
                 * (1u64 << (D as u32 * deepest.min(8))) as f64;
-            memory::Estimate::new(cells, 0.0, per_node, 0)
+            memory::Estimate::new(cells, 0.0, per_grid_node, 0)
                 .fits(available)
                 .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.spacing", e)]))?;
             let cloud =
@@ -268,7 +269,7 @@ pub fn build_model_with<const D: usize>(
                 .bounding_box()
                 .ok_or_else(|| at("the shape must be bounded".into()))?;
             let cells_estimate = (hi[0] - lo[0]) * (hi[1] - lo[1]) / (0.2 * size * size);
-            memory::Estimate::new(cells_estimate, 0.0, per_node, 0)
+            memory::Estimate::new(cells_estimate, 0.0, per_grid_node, 0)
                 .fits(available)
                 .map_err(|e| ld.locate(vec![DeckIssue::new("discretization.size", e)]))?;
             let pores = record_pores(deck_pores(ld, shape, D, pores)?);
