@@ -176,8 +176,8 @@ fn ranks() -> Option<(
 }
 
 /// `peridyn run` over ranks: rank 0 prints; an error every rank meets (the deck, a feature
-/// not yet distributed, an unstable step) ends every rank, any other (a file rank 0 cannot
-/// write) aborts the others, which may be waiting for it.
+/// not yet distributed, a refused checkpoint, an unstable step) ends every rank, any other (a
+/// file rank 0 cannot write) aborts the others, which may be waiting for it.
 #[cfg(feature = "mpi")]
 fn run_distributed(
     ld: &LoadedDeck,
@@ -198,6 +198,7 @@ fn run_distributed(
         Err(
             e @ (RunError::Deck(_)
             | RunError::Distributed(_)
+            | RunError::Checkpoint(_)
             | RunError::Step(_)
             | RunError::Stopped(_)),
         ) => {
@@ -242,6 +243,14 @@ fn main() -> ExitCode {
                     return ExitCode::FAILURE;
                 }
             };
+            if let (Some(o), Some(Some(r))) = (&output, &restart) {
+                if o != r {
+                    if ranks.rank() == 0 {
+                        eprintln!("error: --restart {} and -o {} name different folders: a run continues in its own results folder; give one of them", r.display(), o.display());
+                    }
+                    return ExitCode::FAILURE;
+                }
+            }
             let out_dir = output
                 .or(restart.clone().flatten())
                 .unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));

@@ -3,7 +3,8 @@
 //! node order (`partition`), builds the families of its own nodes and the halo of ghosts they
 //! reach (`share`), exchanges the ghosts inside each step and continues every sum over nodes
 //! in rank order (`solver::ranks`); rank 0 gathers the fields its observers read (`gather`)
-//! and writes every file. Features not yet distributed are refused at start (`refuse`).
+//! and writes every file, and hands each rank its part of a checkpoint to continue from
+//! (`restart`). Features not yet distributed are refused at start (`refuse`).
 //!
 //! Everything here but the transport is plain Rust; the transport (`mpi_ranks`, the `mpi`
 //! feature) is the only part that needs an MPI library.
@@ -14,6 +15,7 @@ pub mod mpi_ranks;
 pub mod partition;
 pub mod plan;
 pub mod refuse;
+pub mod restart;
 pub mod run;
 pub mod share;
 

@@ -20,6 +20,7 @@ pub struct MpiRanks {
 /// Tags of the point-to-point messages (collectives need none).
 const CHAIN_TAG: i32 = 11;
 const HALO_TAG: i32 = 12;
+const SCATTER_TAG: i32 = 13;
 
 impl MpiRanks {
     /// The world of an initialised MPI.
@@ -155,6 +156,19 @@ impl Ranks for MpiRanks {
             root.gather_into(&count);
             root.gather_varcount_into(local);
             None
+        }
+    }
+
+    fn scatter(&self, part: &mut dyn FnMut(usize) -> Vec<f64>) -> Vec<f64> {
+        let w = SimpleCommunicator::world();
+        if self.rank == 0 {
+            for r in 1..self.size {
+                w.process_at_rank(r as i32)
+                    .send_with_tag(&part(r)[..], SCATTER_TAG);
+            }
+            part(0)
+        } else {
+            w.process_at_rank(0).receive_vec_with_tag(SCATTER_TAG).0
         }
     }
 

@@ -14,13 +14,13 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
     ))
 }
 
-/// The first feature of the deck (or of the run's control) not yet distributed, if any.
-pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
+/// The first feature of the deck not yet distributed, if any (a restart continues any deck
+/// that runs distributed: `distributed::restart`).
+pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
     let settings = solver_settings(deck);
     let analysis = deck.analysis.as_ref();
     let found = [
-        (control.restart, "a restart from a checkpoint (--restart)"),
         (
             settings.quasi_static.is_some(),
             "the quasi-static solver ([solver] quasi_static)",
@@ -127,6 +127,14 @@ end_time = 1e-6
         )
     }
 
+    /// A run continued from its checkpoint.
+    fn restart() -> RunControl {
+        RunControl {
+            restart: true,
+            ..RunControl::default()
+        }
+    }
+
     /// What a run of `src` on 2 ranks refuses, if anything.
     fn refused(src: &str, control: &RunControl) -> Option<String> {
         let ld = LoadedDeck::from_str(src, Path::new("t.toml")).expect("a valid deck");
@@ -159,6 +167,11 @@ end_time = 1e-6
             ),
         ] {
             assert_eq!(refused(&deck(material, extra), &fresh), None, "{material}");
+            assert_eq!(
+                refused(&deck(material, extra), &restart()),
+                None,
+                "{material}"
+            );
         }
         let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
         let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
@@ -169,10 +182,6 @@ end_time = 1e-6
     fn the_rest_is_refused_by_name() {
         let lps = "type = \"lps\"\npoisson_ratio = 0.3";
         let fresh = RunControl::default();
-        let restart = RunControl {
-            restart: true,
-            ..RunControl::default()
-        };
         for (material, extra, control, name) in [
             (
                 "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
@@ -181,7 +190,7 @@ end_time = 1e-6
                 "the correspondence model",
             ),
             (lps, "[contact]", &fresh, "contact"),
-            (lps, "", &restart, "a restart"),
+            (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a staged run"),
         ] {
             let message = refused(&deck(material, extra), control).expect("refused");
             assert!(

@@ -156,12 +156,22 @@ fn run_model<const D: usize, M: Material<D>>(
     let densities = ranks.gather(&sim.densities[..owned]);
     let resolved = resolved::resolved_deck(ld)?;
     let origin = crate::checkpoint::Origin::new(&resolved, &ld.file);
+    // Before anything is written: a refused restart leaves the folder as it was.
+    let resume = super::restart::restore(control, out, &origin, &mut sim)?;
     let (attached, whole) = if root {
         resolved::write_start(ld, &resolved, &report, pores.as_deref(), out)?;
         let body = whole.expect("rank 0 keeps the whole body");
         let densities = densities.expect("gathered on rank 0");
         let at = (sim.state.step, sim.state.time);
-        let attached = attach_to(ld, opts, (&body, densities[0]), &report, (false, false), at)?;
+        let restarting = resume.is_some();
+        let attached = attach_to(
+            ld,
+            opts,
+            (&body, densities[0]),
+            &report,
+            (false, restarting),
+            at,
+        )?;
         (Some(attached), Some((body, densities)))
     } else {
         (None, None)
@@ -186,7 +196,7 @@ fn run_model<const D: usize, M: Material<D>>(
     let started = Instant::now();
     let result = {
         let stop_after = control.stop_after_step;
-        let mut watch = Watch::new(&mut observers, checkpoints, stop_after, None, false)
+        let mut watch = Watch::new(&mut observers, checkpoints, stop_after, resume, false)
             .with_source(&mut gather);
         drive_stages(
             &mut sim,

@@ -36,6 +36,9 @@ pub trait Ranks: Send + Sync {
     fn gather(&self, local: &[f64]) -> Option<Vec<f64>>;
     /// Rank 0's `x` on every rank.
     fn broadcast_bool(&self, x: bool) -> bool;
+    /// Rank r's part from rank 0: rank 0 calls `part(r)` for every rank, one at a time (so it
+    /// holds one part at once), and each rank returns its own (the others never call `part`).
+    fn scatter(&self, part: &mut dyn FnMut(usize) -> Vec<f64>) -> Vec<f64>;
 }
 
 /// One rank's share of a distributed run.

@@ -1,0 +1,318 @@
+//! Continuing a distributed run from its checkpoint (`--restart`), on any number of ranks:
+//! `checkpoint.bin` is the file one process writes whatever the number of ranks that wrote
+//! it, so rank 0 reads it whole (into a state of the whole body, with every check of
+//! `checkpoint::restore`) and sends each rank its part: the scalars of the state and of the
+//! driver (the same on every rank), its owned nodes' u, v, y, f and b, and its rows' bond
+//! status and history (a rank's rows are contiguous in the global order: they follow the
+//! rows of the ranks before it). The ghosts then take their owners' u, v and y by the halo
+//! exchange, not from the file. Rank 0 holds the file, the whole state and one rank's part
+//! at once: O(N) on rank 0 (about twice the checkpoint's size), as its output already is.
+
+use crate::checkpoint::{DriverState, Origin};
+use crate::material::Material;
+use crate::math::Vector;
+use crate::run::{RunControl, RunError};
+use crate::solver::Simulation;
+use crate::state::State;
+use std::path::Path;
+
+/// Where a rank's share lies in the whole state: its owned nodes (global indices
+/// `first..first + owned`), its bond entries and history words (counts; their offsets are the
+/// counts of the ranks before it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Rows {
+    first: usize,
+    owned: usize,
+    entries: usize,
+    history: usize,
+}
+
+/// The scalars a part starts with: the state's and the driver's.
+const HEAD: usize = 14;
+
+/// With `control.restart`, restores every rank's share of the checkpoint in `out` into
+/// `sim` (a distributed run's) and returns the driver state, on every rank. Every rank calls
+/// it; a checkpoint rank 0 refuses is refused on every rank, before anything is written.
+pub fn restore<const D: usize, M: Material<D>>(
+    control: &RunControl,
+    out: &Path,
+    origin: &Origin,
+    sim: &mut Simulation<D, M>,
+) -> Result<Option<DriverState<D>>, RunError> {
+    if !control.restart {
+        return Ok(None);
+    }
+    let share = sim.share.clone().expect("a distributed run's share");
+    let ranks = &*share.ranks;
+    let state = &mut sim.state;
+    if !state.previous.is_empty() || !state.previous_matrices.is_empty() {
+        // Kept only by non-central models (correspondence), refused at start.
+        return Err(super::refuse::refusal(
+            "a restart of a non-central model",
+            ranks.size(),
+        ));
+    }
+    let mine = Rows {
+        first: share.first,
+        owned: share.owned,
+        entries: state.status.len(),
+        history: state.history.len(),
+    };
+    let whole = ranks
+        .gather(&mine.words())
+        .map(|words| read_whole::<D>(out, origin, &Rows::from_words(&words)));
+    let refused = match &whole {
+        Some(Err(e)) => Some(e.to_string()),
+        _ => None,
+    };
+    if let Some(message) = ranks.first_message(refused) {
+        return Err(match whole {
+            Some(Err(e)) => e,
+            _ => RunError::Distributed(message),
+        });
+    }
+    let part = ranks.scatter(&mut |r| {
+        let (state, driver, rows) = whole
+            .as_ref()
+            .and_then(|w| w.as_ref().ok())
+            .expect("rank 0 read the checkpoint");
+        part_of(state, driver, rows, r)
+    });
+    let driver = unpack(&part, state, share.owned);
+    share.halo.exchange(ranks, state);
+    Ok(Some(driver))
+}
+
+impl Rows {
+    fn words(&self) -> [f64; 4] {
+        [self.first, self.owned, self.entries, self.history].map(|n| n as f64)
+    }
+
+    /// Every rank's rows from their gathered words, in rank order.
+    fn from_words(words: &[f64]) -> Vec<Rows> {
+        words
+            .chunks_exact(4)
+            .map(|w| Rows {
+                first: w[0] as usize,
+                owned: w[1] as usize,
+                entries: w[2] as usize,
+                history: w[3] as usize,
+            })
+            .collect()
+    }
+}
+
+/// On rank 0: the whole body's state, the driver state and every rank's rows.
+type Whole<const D: usize> = (State<D>, DriverState<D>, Vec<Rows>);
+
+/// Rank 0: the whole body's state and the driver state from the checkpoint, for ranks of
+/// `rows` (in rank order).
+fn read_whole<const D: usize>(
+    out: &Path,
+    origin: &Origin,
+    rows: &[Rows],
+) -> Result<Whole<D>, RunError> {
+    let sum = |f: fn(&Rows) -> usize| rows.iter().map(f).sum::<usize>();
+    let mut whole = sized::<D>(sum(|r| r.owned), sum(|r| r.entries), sum(|r| r.history));
+    let path = out.join(crate::checkpoint::FILE_NAME);
+    let driver = crate::checkpoint::restore(&path, origin, &mut whole)?;
+    if driver.quasi_static.is_some() || !driver.impactors.is_empty() {
+        // The deck's hash matched, and such decks are refused at start.
+        return Err(super::refuse::refusal(
+            "a restart of a quasi-static run or one with impactors",
+            rows.len(),
+        ));
+    }
+    Ok((whole, driver, rows.to_vec()))
+}
+
+/// A state of `nodes` nodes, `entries` bond entries and `history` history words, zeroed.
+fn sized<const D: usize>(nodes: usize, entries: usize, history: usize) -> State<D> {
+    let vectors = || vec![Vector::<D>::zeros(); nodes];
+    State {
+        time: 0.0,
+        step: 0,
+        u: vectors(),
+        v: vectors(),
+        current: vectors(),
+        force: vectors(),
+        body_force: vectors(),
+        status: vec![0; entries],
+        history: vec![0.0; history],
+        previous: Vec::new(),
+        previous_matrices: Vec::new(),
+        broken: 0,
+        external_work: 0.0,
+        dissipated_viscous: 0.0,
+        dissipated_damage: 0.0,
+        dt: 0.0,
+        iterations: 0,
+    }
+}
+
+/// Rank `r`'s part of the whole state: the scalars, its owned nodes' vectors, its entries'
+/// status and history (u64 scalars and status bytes carried as f64: exact).
+fn part_of<const D: usize>(
+    whole: &State<D>,
+    driver: &DriverState<D>,
+    rows: &[Rows],
+    r: usize,
+) -> Vec<f64> {
+    let Rows {
+        first,
+        owned,
+        entries,
+        history,
+    } = rows[r];
+    let entries_first: usize = rows[..r].iter().map(|x| x.entries).sum();
+    let history_first: usize = rows[..r].iter().map(|x| x.history).sum();
+    let mut part = Vec::with_capacity(HEAD + owned * 5 * D + entries + history);
+    part.extend([
+        whole.time,
+        f64::from_bits(whole.step),
+        f64::from_bits(whole.broken),
+        whole.external_work,
+        whole.dissipated_viscous,
+        whole.dissipated_damage,
+        whole.dt,
+        f64::from_bits(whole.iterations),
+        driver.next_dt,
+        f64::from_bits(driver.since_change),
+        f64::from_bits(driver.rejected),
+        f64::from_bits(driver.stage),
+        f64::from_bits(driver.stage_start.0),
+        driver.stage_start.1,
+    ]);
+    for a in [
+        &whole.u,
+        &whole.v,
+        &whole.current,
+        &whole.force,
+        &whole.body_force,
+    ] {
+        for x in &a[first..first + owned] {
+            part.extend_from_slice(x.as_slice());
+        }
+    }
+    let status = &whole.status[entries_first..entries_first + entries];
+    part.extend(status.iter().map(|&b| b as f64));
+    part.extend_from_slice(&whole.history[history_first..history_first + history]);
+    part
+}
+
+/// Sets a rank's `state` (its `owned` nodes first) from its part; the driver state.
+fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> DriverState<D> {
+    let (head, rest) = part.split_at(HEAD);
+    let bits = |k: usize| head[k].to_bits();
+    state.time = head[0];
+    state.step = bits(1);
+    state.broken = bits(2);
+    state.external_work = head[3];
+    state.dissipated_viscous = head[4];
+    state.dissipated_damage = head[5];
+    state.dt = head[6];
+    state.iterations = bits(7);
+    let driver = DriverState {
+        next_dt: head[8],
+        since_change: bits(9),
+        rejected: bits(10),
+        stage: bits(11),
+        stage_start: (bits(12), head[13]),
+        quasi_static: None,
+        impactors: Vec::new(),
+    };
+    let (vectors, rest) = rest.split_at(owned * 5 * D);
+    let mut words = vectors.chunks_exact(D);
+    for a in [
+        &mut state.u,
+        &mut state.v,
+        &mut state.current,
+        &mut state.force,
+        &mut state.body_force,
+    ] {
+        for (x, w) in a[..owned].iter_mut().zip(&mut words) {
+            *x = Vector::<D>::from_column_slice(w);
+        }
+    }
+    let (status, history) = rest.split_at(state.status.len());
+    assert_eq!(
+        history.len(),
+        state.history.len(),
+        "a part of this rank's size"
+    );
+    for (b, &w) in state.status.iter_mut().zip(status) {
+        *b = w as u8;
+    }
+    state.history.copy_from_slice(history);
+    driver
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A whole state of 7 nodes whose every number tells where it is.
+    fn whole() -> State<2> {
+        let mut s = sized::<2>(7, 20, 40);
+        for i in 0..7 {
+            let x = i as f64;
+            s.u[i] = Vector::<2>::new(x, -x);
+            s.v[i] = Vector::<2>::new(10.0 + x, 0.5);
+            s.current[i] = Vector::<2>::new(20.0 + x, 1.5);
+            s.force[i] = Vector::<2>::new(30.0 + x, 2.5);
+            s.body_force[i] = Vector::<2>::new(40.0 + x, 3.5);
+        }
+        s.status = (0..20).map(|b| (b % 4) as u8).collect();
+        s.history = (0..40).map(|k| 0.25 * k as f64).collect();
+        (s.time, s.step, s.broken) = (1e-6, 123, 17);
+        (s.external_work, s.dissipated_viscous, s.dissipated_damage) = (0.1, 0.2, 0.3);
+        (s.dt, s.iterations) = (1e-8, 1);
+        s
+    }
+
+    /// Three ranks of 3, 2 and 2 nodes (with 2, 1 and 0 ghosts) get their own nodes, rows and
+    /// the scalars; the ghosts are left to the halo exchange.
+    #[test]
+    fn each_rank_gets_its_nodes_rows_and_the_scalars() {
+        let whole = whole();
+        let driver = DriverState::<2> {
+            next_dt: 2e-8,
+            since_change: 5,
+            rejected: 3,
+            stage: 0,
+            stage_start: (0, 0.0),
+            ..DriverState::default()
+        };
+        let rows = [(0, 3, 9, 2), (3, 2, 6, 1), (5, 2, 5, 0)].map(|(first, owned, e, ghosts)| {
+            (
+                Rows {
+                    first,
+                    owned,
+                    entries: e,
+                    history: 2 * e,
+                },
+                ghosts,
+            )
+        });
+        let words: Vec<f64> = rows.iter().flat_map(|(r, _)| r.words()).collect();
+        let all = Rows::from_words(&words);
+        let (mut entry, mut word) = (0, 0);
+        for (r, (mine, ghosts)) in rows.iter().enumerate() {
+            assert_eq!(all[r], *mine);
+            let mut local = sized::<2>(mine.owned + ghosts, mine.entries, mine.history);
+            let got = unpack(&part_of(&whole, &driver, &all, r), &mut local, mine.owned);
+            assert_eq!(got, driver);
+            let nodes = mine.first..mine.first + mine.owned;
+            assert_eq!(local.u[..mine.owned], whole.u[nodes.clone()]);
+            assert_eq!(local.body_force[..mine.owned], whole.body_force[nodes]);
+            assert!(local.u[mine.owned..]
+                .iter()
+                .all(|x| *x == Vector::<2>::zeros()));
+            assert_eq!(local.status, whole.status[entry..entry + mine.entries]);
+            assert_eq!(local.history, whole.history[word..word + mine.history]);
+            assert_eq!((local.step, local.broken, local.time), (123, 17, 1e-6));
+            assert_eq!((local.dissipated_damage, local.iterations), (0.3, 1));
+            (entry, word) = (entry + mine.entries, word + mine.history);
+        }
+    }
+}

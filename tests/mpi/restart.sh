@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# Distributed restarts: each deck run whole in one process, then stopped on A ranks and
+# continued from its checkpoint on B ranks (by default 2 → 3, 3 → 1 and 1 → 2), every file of
+# the continued run compared byte for byte with the whole run's (summary.txt without its
+# wall-time lines). The run stops halfway between its middle snapshot and the next, so it
+# continues from the checkpoint of the middle one (in the decks below, with the crack running
+# and, under the adaptive time step, dt reduced). Needs a build with the `mpi` feature:
+#   cargo build --release --features mpi && tests/mpi/restart.sh [DECK...]
+# As root, Open MPI needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+bin=${PERIDYN:-target/release/peridyn}
+pairs=${PAIRS:-"2:3 3:1 1:2"}
+if [ $# -eq 0 ]; then
+  set -- tests/mpi/lps_energy_notched.toml tests/mpi/pmb_energy_adaptive.toml
+fi
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+# The lines of summary.txt that depend on the wall clock (or the results folder).
+timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' "$1"; }
+# `on N ARGS...`: peridyn run ARGS on N ranks (one process without mpirun for N = 1).
+on() {
+  local n=$1
+  shift
+  if [ "$n" = 1 ]; then
+    "$bin" run "$@" --quiet --threads 1
+  else
+    mpirun -np "$n" --oversubscribe "$bin" run "$@" --quiet --threads 1
+  fi >/dev/null
+}
+failed=0
+for deck in "$@"; do
+  name=$(basename "$deck" .toml)
+  whole="$out/$name/whole"
+  on 1 "$deck" -o "$whole"
+  # The snapshots' steps, from the names of their files (step_00000150.vtu: 150), in order.
+  steps=$(cd "$whole/fields" && ls step_*.vtu | sed 's/^step_\([0-9]*\)\.vtu$/\1/' | sort)
+  count=$(echo "$steps" | wc -l)
+  middle=$((10#$(echo "$steps" | sed -n "$((count / 2 + 1))p")))
+  next=$((10#$(echo "$steps" | sed -n "$((count / 2 + 2))p")))
+  stop=$(((middle + next) / 2))
+  for pair in $pairs; do
+    a=${pair%:*} b=${pair#*:}
+    parts="$out/$name/$a-$b"
+    if on "$a" "$deck" -o "$parts" --stop-after-step "$stop" 2>/dev/null; then
+      echo "$name: the run on $a ranks did not stop after step $stop"
+      failed=1
+      continue
+    fi
+    on "$b" "$deck" -o "$parts" --restart
+    files=$(cd "$whole" && find . -type f | sort)
+    if [ "$files" != "$(cd "$parts" && find . -type f | sort)" ]; then
+      echo "$name stopped on $a ranks after step $stop, continued on $b: other files than the whole run's"
+      failed=1
+      continue
+    fi
+    same=0 differ=0
+    for f in $files; do
+      if [ "$f" = ./summary.txt ]; then
+        cmp -s <(timeless "$whole/$f") <(timeless "$parts/$f") && ok=1 || ok=0
+      else
+        cmp -s "$whole/$f" "$parts/$f" && ok=1 || ok=0
+      fi
+      if [ $ok = 1 ]; then same=$((same + 1)); else differ=$((differ + 1)); echo "  differs: $f"; fi
+    done
+    echo "$name stopped on $a ranks after step $stop, continued on $b: $same files identical, $differ differ"
+    [ $differ = 0 ] || failed=1
+  done
+done
+exit $failed
