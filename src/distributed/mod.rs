@@ -16,5 +16,7 @@ pub mod plan;
 pub mod refuse;
 pub mod run;
 pub mod share;
+#[cfg(test)]
+pub mod thread_ranks;
 
 pub use run::run_with;

@@ -18,7 +18,6 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
 pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
     let settings = solver_settings(deck);
-    let analysis = deck.analysis.as_ref();
     let found = [
         (control.restart, "a restart from a checkpoint (--restart)"),
         (
@@ -26,18 +25,7 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
             "the quasi-static solver ([solver] quasi_static)",
         ),
         (!deck.stages.is_empty(), "a staged run ([[stages]])"),
-        (
-            deck.contact.is_some() || !deck.impactors.is_empty(),
-            "contact ([contact], [[impactors]])",
-        ),
-        (
-            analysis.is_some_and(|a| a.crack_path.is_some()),
-            "[analysis.crack_path]",
-        ),
-        (
-            analysis.is_some_and(|a| a.crack_surface.is_some()),
-            "[analysis.crack_surface]",
-        ),
+        (deck.contact.is_some(), "node-node contact ([contact])"),
         (
             !deck.materials.is_empty() || !deck.blocks.is_empty(),
             "several materials ([materials], [[blocks]])",

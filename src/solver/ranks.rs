@@ -36,6 +36,8 @@ pub trait Ranks: Send + Sync {
     fn gather(&self, local: &[f64]) -> Option<Vec<f64>>;
     /// Rank 0's `x` on every rank.
     fn broadcast_bool(&self, x: bool) -> bool;
+    /// Every rank's `local` on every rank, in rank order.
+    fn all_gather(&self, local: &[f64]) -> Vec<f64>;
 }
 
 /// One rank's share of a distributed run.
