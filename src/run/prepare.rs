@@ -226,7 +226,10 @@ fn attach_contact<const D: usize, M: Material<D>>(
         sim.share.as_deref(),
         sim.body.volumes[..sim.owned()].iter().copied(),
     );
-    let nodes = sim.share.as_deref().map_or(sim.body.len(), |s| s.global_nodes);
+    let nodes = sim
+        .share
+        .as_deref()
+        .map_or(sim.body.len(), |s| s.global_nodes);
     let scales = Scales {
         spacing,
         horizon,

@@ -57,9 +57,8 @@ impl<const D: usize> RemoteNodes<D> {
             .iter()
             .map(|&q| {
                 let b = &boxes[2 * D * q..2 * D * (q + 1)];
-                let inside = |p: &Vector<D>| {
-                    (0..D).all(|k| p[k] >= b[k] - grow && p[k] <= b[D + k] + grow)
-                };
+                let inside =
+                    |p: &Vector<D>| (0..D).all(|k| p[k] >= b[k] - grow && p[k] <= b[D + k] + grow);
                 (0..owned.len() as u32)
                     .filter(|&i| inside(&owned[i as usize]))
                     .collect()
@@ -130,9 +129,7 @@ impl<const D: usize> RemoteNodes<D> {
 /// The global index of each of this rank's local nodes (owned, then ghosts: their owners tell
 /// them through the halo; a collective call).
 pub fn local_globals(share: &Share, nodes: usize) -> Vec<u32> {
-    let mut g: Vec<f64> = (0..nodes)
-        .map(|i| (share.first + i) as f64)
-        .collect();
+    let mut g: Vec<f64> = (0..nodes).map(|i| (share.first + i) as f64).collect();
     share.halo.exchange_values(&*share.ranks, &mut g);
     g.into_iter().map(|x| x as u32).collect()
 }

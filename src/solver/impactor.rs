@@ -347,7 +347,10 @@ mod tests {
             .collect();
         let (t, e) = dense_sum(n, &all);
         let (t2, e2) = chunked_sum(&all);
-        assert_eq!((t[0].to_bits(), t[1].to_bits()), (t2[0].to_bits(), t2[1].to_bits()));
+        assert_eq!(
+            (t[0].to_bits(), t[1].to_bits()),
+            (t2[0].to_bits(), t2[1].to_bits())
+        );
         assert_eq!(e.to_bits(), e2.to_bits());
         // Ranks split at node chunks of 256, not at impactor chunks: their lists, sent as
         // words and put one after the other, are the same list.
