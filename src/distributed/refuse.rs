@@ -25,7 +25,6 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
             "the quasi-static solver ([solver] quasi_static)",
         ),
         (!deck.stages.is_empty(), "a staged run ([[stages]])"),
-        (deck.contact.is_some(), "node-node contact ([contact])"),
         (
             !deck.materials.is_empty() || !deck.blocks.is_empty(),
             "several materials ([materials], [[blocks]])",
@@ -142,6 +141,10 @@ end_time = 1e-6
             ),
             ("type = \"lps\"\npoisson_ratio = 0.3", "[solver.adaptive]"),
             (
+                "type = \"pmb\"",
+                "[contact]\n[[impactors]]\nname = \"disk\"\nshape = \"sphere\"\ncentre = [-1e-3, 1e-3]\nradius = 1e-3\nvelocity = [10.0, 0.0]\nmass = 1e-3\n[analysis.crack_path]",
+            ),
+            (
                 "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
                 "",
             ),
@@ -168,7 +171,6 @@ end_time = 1e-6
                 &fresh,
                 "the correspondence model",
             ),
-            (lps, "[contact]", &fresh, "contact"),
             (lps, "", &restart, "a restart"),
         ] {
             let message = refused(&deck(material, extra), control).expect("refused");
