@@ -8,8 +8,9 @@
 //! The broken halves are read from the step's view (`Fields::broken_halves`: in one process
 //! from the bonds and their quadrature weights; in a distributed run each rank's rows,
 //! gathered to rank 0 in rank order). Its scans run sequentially in node and bond order, so
-//! the files are the same for any number of threads and ranks. A restart reads the area history back from
-//! `crack_area.csv`; the surface is recomputed from the state at the next sample.
+//! the files are the same for any number of threads and ranks. A restart reads the area
+//! history back from `crack_area.csv`; the surface is recomputed from the state at the next
+//! sample.
 
 use super::csv::push_number;
 use super::observer::{Every, Observer, StepView};
