@@ -14,9 +14,12 @@ enum Kind {
     Collective,
 }
 
+/// The messages not yet received, per (sender, receiver, kind), in the order sent.
+type Mailboxes = HashMap<(usize, usize, Kind), VecDeque<Vec<f64>>>;
+
 #[derive(Default)]
 struct Hub {
-    boxes: Mutex<HashMap<(usize, usize, Kind), VecDeque<Vec<f64>>>>,
+    boxes: Mutex<Mailboxes>,
     arrived: Condvar,
 }
 

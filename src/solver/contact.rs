@@ -410,7 +410,7 @@ steps = 1
 
     /// A bond entry broken by a rule of the two nodes' global indices (the same at both ends).
     fn broken(gi: u32, gj: u32) -> bool {
-        (gi + gj) % 5 == 0
+        (gi + gj).is_multiple_of(5)
     }
 
     /// Contact force bits of every node and the energy bits, after each of three moves (the
