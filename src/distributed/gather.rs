@@ -1,12 +1,16 @@
 //! Output of a distributed run: when rank 0's observers want a step, every rank sends its
 //! owned nodes' fields to rank 0, which fills a state of the whole body and hands the
-//! observers that — the same view, and so the same files, as one process writes.
+//! observers that — the same view, and so the same files, as one process writes. Bonds stay
+//! on their ranks: an observer that reads the broken bonds (`[analysis.crack_surface]`) gets
+//! each rank's broken halves, gathered in rank order (the one-process node order).
 
+use crate::analysis::BrokenHalf;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::math::Vector;
 use crate::observe::{Observer, StepView};
 use crate::run::{RunError, ViewSource};
+use crate::solver::impactor::Impactor;
 use crate::solver::ranks::Ranks;
 use crate::solver::Fields;
 use crate::state::State;
@@ -35,6 +39,21 @@ struct Root<const D: usize> {
     damage: Vec<f64>,
     energy: Vec<f64>,
     dissipation: f64,
+    /// What every rank holds alike: contact's and the impactors' (`Fields`).
+    contact: Contact<D>,
+    /// The broken halves of every rank's rows, in global order (gathered when an observer
+    /// reads them).
+    halves: Vec<BrokenHalf<D>>,
+}
+
+/// Contact's energy and the impactors, the same on every rank (their sums run over every
+/// rank's nodes): rank 0 hands its own.
+#[derive(Default)]
+struct Contact<const D: usize> {
+    on: bool,
+    energy: f64,
+    impactor_kinetic_energy: f64,
+    impactors: Vec<Impactor<D>>,
 }
 
 impl<const D: usize> Gather<D> {
@@ -57,6 +76,8 @@ impl<const D: usize> Gather<D> {
                 damage: vec![0.0; n],
                 energy: vec![0.0; n],
                 dissipation: 0.0,
+                contact: Contact::default(),
+                halves: Vec::new(),
                 body,
             }
         });
@@ -79,6 +100,13 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         if !self.ranks.broadcast_bool(want) {
             return Ok(());
         }
+        let reads_bonds = observers
+            .iter()
+            .any(|o| o.wants(step, wanted) && o.reads_broken_bonds());
+        let halves = self
+            .ranks
+            .broadcast_bool(reads_bonds)
+            .then(|| self.ranks.gather(&pack_halves(&fields.broken_halves())));
         let (damage, energy) = (fields.damage(), fields.energy_density());
         let dissipation = fields.damage_dissipation();
         let Some(all) = self.gather_nodes(state, &[&damage, &energy]) else {
@@ -90,6 +118,15 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
             root.energy[i] = w[5 * D + 1];
         }
         root.dissipation = dissipation;
+        if let Some(words) = halves.flatten() {
+            root.halves = unpack_halves(&words);
+        }
+        root.contact = Contact {
+            on: fields.has_contact(),
+            energy: fields.contact_energy(),
+            impactor_kinetic_energy: fields.impactor_kinetic_energy(),
+            impactors: fields.impactors().to_vec(),
+        };
         let view = StepView::new(&*root as &dyn Fields<D>, last);
         for o in observers.iter_mut() {
             if o.wants(step, wanted) {
@@ -151,6 +188,29 @@ impl<const D: usize> Gather<D> {
     }
 }
 
+/// Broken halves as words: x_i, x_j (D each), the weight, the horizon.
+fn pack_halves<const D: usize>(halves: &[BrokenHalf<D>]) -> Vec<f64> {
+    let mut buf = Vec::with_capacity(halves.len() * (2 * D + 2));
+    for h in halves {
+        buf.extend_from_slice(h.owner.as_slice());
+        buf.extend_from_slice(h.neighbour.as_slice());
+        buf.extend([h.weight, h.horizon]);
+    }
+    buf
+}
+
+fn unpack_halves<const D: usize>(words: &[f64]) -> Vec<BrokenHalf<D>> {
+    words
+        .chunks_exact(2 * D + 2)
+        .map(|w| BrokenHalf {
+            owner: Vector::<D>::from_column_slice(&w[..D]),
+            neighbour: Vector::<D>::from_column_slice(&w[D..2 * D]),
+            weight: w[2 * D],
+            horizon: w[2 * D + 1],
+        })
+        .collect()
+}
+
 impl<const D: usize> Fields<D> for Root<D> {
     fn body(&self) -> &Body<D> {
         &self.body
@@ -182,5 +242,20 @@ impl<const D: usize> Fields<D> for Root<D> {
             .iter()
             .map(|&i| self.state.force[i as usize] * self.body.volumes[i as usize])
             .fold(Vector::zeros(), |a, b| a + b)
+    }
+    fn has_contact(&self) -> bool {
+        self.contact.on
+    }
+    fn contact_energy(&self) -> f64 {
+        self.contact.energy
+    }
+    fn impactor_kinetic_energy(&self) -> f64 {
+        self.contact.impactor_kinetic_energy
+    }
+    fn impactors(&self) -> &[Impactor<D>] {
+        &self.contact.impactors
+    }
+    fn broken_halves(&self) -> Vec<BrokenHalf<D>> {
+        self.halves.clone()
     }
 }

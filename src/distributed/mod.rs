@@ -18,5 +18,7 @@ pub mod refuse;
 pub mod restart;
 pub mod run;
 pub mod share;
+#[cfg(test)]
+pub mod thread_ranks;
 
 pub use run::run_with;

@@ -179,4 +179,26 @@ impl Ranks for MpiRanks {
             .broadcast_into(&mut b);
         b != 0
     }
+
+    fn all_gather(&self, local: &[f64]) -> Vec<f64> {
+        let w = SimpleCommunicator::world();
+        let count = local.len() as Count;
+        let mut counts = vec![0 as Count; self.size];
+        w.all_gather_into(&count, &mut counts[..]);
+        let displs: Vec<Count> = counts
+            .iter()
+            .scan(0, |acc, &c| {
+                let d = *acc;
+                *acc += c;
+                Some(d)
+            })
+            .collect();
+        let total: Count = counts.iter().sum();
+        let mut all = vec![0.0f64; total as usize];
+        {
+            let mut partition = PartitionMut::new(&mut all[..], counts, &displs[..]);
+            w.all_gather_varcount_into(local, &mut partition);
+        }
+        all
+    }
 }

@@ -19,25 +19,12 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
 pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
     let settings = solver_settings(deck);
-    let analysis = deck.analysis.as_ref();
     let found = [
         (
             settings.quasi_static.is_some(),
             "the quasi-static solver ([solver] quasi_static)",
         ),
         (!deck.stages.is_empty(), "a staged run ([[stages]])"),
-        (
-            deck.contact.is_some() || !deck.impactors.is_empty(),
-            "contact ([contact], [[impactors]])",
-        ),
-        (
-            analysis.is_some_and(|a| a.crack_path.is_some()),
-            "[analysis.crack_path]",
-        ),
-        (
-            analysis.is_some_and(|a| a.crack_surface.is_some()),
-            "[analysis.crack_surface]",
-        ),
         (
             !deck.materials.is_empty() || !deck.blocks.is_empty(),
             "several materials ([materials], [[blocks]])",
@@ -162,6 +149,10 @@ end_time = 1e-6
             ),
             ("type = \"lps\"\npoisson_ratio = 0.3", "[solver.adaptive]"),
             (
+                "type = \"pmb\"",
+                "[contact]\n[[impactors]]\nname = \"disk\"\nshape = \"sphere\"\ncentre = [-1e-3, 1e-3]\nradius = 1e-3\nvelocity = [10.0, 0.0]\nmass = 1e-3\n[analysis.crack_path]",
+            ),
+            (
                 "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
                 "",
             ),
@@ -189,7 +180,6 @@ end_time = 1e-6
                 &fresh,
                 "the correspondence model",
             ),
-            (lps, "[contact]", &fresh, "contact"),
             (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a staged run"),
         ] {
             let message = refused(&deck(material, extra), control).expect("refused");

@@ -5,10 +5,12 @@
 //! grid normal to `axis` (`analysis::crack_surface`). Files, written atomically at every
 //! flush and at the end: `crack_area.csv`, `crack_surface.csv`, `crack_surface.vtu`.
 //!
-//! The bonds and their quadrature weights are read from the step's view (no copy). Its scans
-//! run sequentially in node and bond order, so the
-//! files are the same for any number of threads. A restart reads the area history back from
-//! `crack_area.csv`; the surface is recomputed from the state at the next sample.
+//! The broken halves are read from the step's view (`Fields::broken_halves`: in one process
+//! from the bonds and their quadrature weights; in a distributed run each rank's rows,
+//! gathered to rank 0 in rank order). Its scans run sequentially in node and bond order, so
+//! the files are the same for any number of threads and ranks. A restart reads the area
+//! history back from `crack_area.csv`; the surface is recomputed from the state at the next
+//! sample.
 
 use super::csv::push_number;
 use super::observer::{Every, Observer, StepView};
@@ -313,19 +315,17 @@ impl<const D: usize> Observer<D> for CrackSurface {
         D == 3 && self.every.hits(step, last)
     }
 
+    fn reads_broken_bonds(&self) -> bool {
+        true
+    }
+
     fn observe(&mut self, view: &StepView<D>) -> io::Result<()> {
         let t = view.state.time;
         // A step offered twice (a stage's end) adds nothing.
         if self.samples.last().is_some_and(|s| t <= s.time) {
             return Ok(());
         }
-        let halves = broken_halves(
-            view.body,
-            &view.bonds.offsets,
-            &view.bonds.neighbors,
-            view.quad,
-            &view.state.status,
-        );
+        let halves = view.broken_halves();
         self.samples.push(Sample {
             time: t,
             step: view.state.step,

@@ -75,6 +75,10 @@ impl<'a, const D: usize> StepView<'a, D> {
     pub fn impactors(&self) -> &[crate::solver::impactor::Impactor<D>] {
         self.fields.impactors()
     }
+    /// The broken halves of the bonds, in node then bond order.
+    pub fn broken_halves(&self) -> Vec<crate::analysis::BrokenHalf<D>> {
+        self.fields.broken_halves()
+    }
 }
 
 /// Something that watches the run: writers, trackers, progress.
@@ -82,6 +86,11 @@ pub trait Observer<const D: usize> {
     /// Whether this observer wants the view of `step` (the driver builds the view only then).
     fn wants(&self, step: u64, last: bool) -> bool;
     fn observe(&mut self, view: &StepView<D>) -> std::io::Result<()>;
+    /// Whether `observe` reads the broken bonds (`StepView::broken_halves`): a distributed
+    /// run then gathers them from every rank for the step.
+    fn reads_broken_bonds(&self) -> bool {
+        false
+    }
     /// Called once at the end, also after a failed step, so nothing written so far is lost.
     fn finish(&mut self) -> std::io::Result<()> {
         Ok(())

@@ -220,10 +220,20 @@ fn attach_contact<const D: usize, M: Material<D>>(
     if ld.deck.contact.is_none() && ld.deck.impactors.is_empty() {
         return Ok(());
     }
+    // The mean node volume of the whole body (a rank's part: its owned nodes' sum continued
+    // across the ranks, over every node).
+    let total_volume = crate::solver::ranks::ordered_sum(
+        sim.share.as_deref(),
+        sim.body.volumes[..sim.owned()].iter().copied(),
+    );
+    let nodes = sim
+        .share
+        .as_deref()
+        .map_or(sim.body.len(), |s| s.global_nodes);
     let scales = Scales {
         spacing,
         horizon,
-        volume: sim.body.total_volume() / sim.body.len().max(1) as f64,
+        volume: total_volume / nodes.max(1) as f64,
         thickness: sim.body.thickness,
         elasticity,
     };

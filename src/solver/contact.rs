@@ -18,7 +18,11 @@
 //! (Verlet skin) when some node has moved more than skin/2 since the list was built. Each node
 //! sums its own candidates in ascending index order (gather, no atomics): the force does not
 //! depend on the thread count, nor on when the list was rebuilt (pairs beyond r_c add nothing).
+//! A rank of a distributed run searches its owned nodes' candidates among its own and the
+//! other ranks' nodes near them (`contact_halo`), in ascending global index: the same sums.
 
+use super::contact_halo::{local_globals, RemoteNodes};
+use super::ranks::{ordered_sum, Share};
 use crate::body::Body;
 use crate::bonds::Bonds;
 use crate::math::Vector;
@@ -48,15 +52,34 @@ pub struct ContactSettings {
 pub struct NodeContact<const D: usize> {
     pub settings: ContactSettings,
     /// CSR candidate list: node i's candidates are `pairs[offsets[i]..offsets[i + 1]]`, each
-    /// (neighbour, bond entry i→j or `UNBONDED`), ascending by neighbour.
+    /// (neighbour, bond entry i→j or `UNBONDED`), ascending by the neighbour's global index.
+    /// A neighbour indexes the nodes (one process) or `RemoteNodes::points` (a rank).
     offsets: Vec<usize>,
     pairs: Vec<(u32, u32)>,
-    /// Current positions when the list was built (empty: never built).
+    /// Current positions of the owned nodes when the list was built (empty: never built).
     built_at: Vec<Vector<D>>,
     /// Contact potential energy at the last evaluation (J).
     pub energy: f64,
     /// Times the list was built.
     pub rebuilds: u64,
+    /// A distributed run's: the other ranks' nodes near this rank's, and the global index of
+    /// every local node (for the bonds' rows).
+    remote: Option<(RemoteNodes<D>, Vec<u32>)>,
+}
+
+/// What the search and the force read of the nodes: one process's own arrays, or a rank's
+/// owned nodes followed by the other ranks' near them.
+struct Points<'a, const D: usize> {
+    positions: &'a [Vector<D>],
+    volumes: &'a [f64],
+    /// Global index of each point (`None`: the point's own index).
+    globals: Option<&'a [u32]>,
+}
+
+impl<const D: usize> Points<'_, D> {
+    fn global(&self, j: usize) -> u32 {
+        self.globals.map_or(j as u32, |g| g[j])
+    }
 }
 
 impl<const D: usize> NodeContact<D> {
@@ -68,6 +91,7 @@ impl<const D: usize> NodeContact<D> {
             built_at: Vec::new(),
             energy: 0.0,
             rebuilds: 0,
+            remote: None,
         }
     }
 
@@ -90,29 +114,38 @@ impl<const D: usize> NodeContact<D> {
             .any(|(y, y0)| (y - y0).norm_squared() > limit)
     }
 
-    /// Builds the candidate list from a cell list over the current positions.
-    fn rebuild(&mut self, bonds: &Bonds, current: &[Vector<D>]) {
-        let n = current.len();
+    /// Builds the candidate list of the first `owned` points from a cell list over all of
+    /// them. `row_globals` gives a bond row's neighbours' global indices (`None`: their own).
+    fn rebuild(
+        &mut self,
+        bonds: &Bonds,
+        points: &Points<D>,
+        owned: usize,
+        row_globals: Option<&[u32]>,
+    ) {
+        let current = points.positions;
         let reach = self.settings.radius + self.settings.skin;
         let cells = CellList::new(current, reach);
-        let lists: Vec<Vec<(u32, u32)>> = (0..n)
+        let lists: Vec<Vec<(u32, u32)>> = (0..owned)
             .into_par_iter()
             .with_min_len(CHUNK)
             .map(|i| {
                 let mut found = Vec::new();
                 cells.for_each_near(current[i], |j| {
                     if j != i && (current[j] - current[i]).norm_squared() < reach * reach {
-                        found.push(j as u32);
+                        found.push((points.global(j), j as u32));
                     }
                 });
                 found.sort_unstable();
                 let family = bonds.family(i);
                 let row = &bonds.neighbors[family.clone()];
+                // Rows are in ascending global order.
+                let global_of = |l: &u32| row_globals.map_or(*l, |g| g[*l as usize]);
                 found
                     .into_iter()
-                    .map(|j| {
+                    .map(|(g, j)| {
                         let entry = row
-                            .binary_search(&j)
+                            .binary_search_by_key(&g, global_of)
                             .map_or(UNBONDED, |k| (family.start + k) as u32);
                         (j, entry)
                     })
@@ -127,16 +160,63 @@ impl<const D: usize> NodeContact<D> {
             self.offsets.push(self.pairs.len());
         }
         self.built_at.clear();
-        self.built_at.extend_from_slice(current);
+        self.built_at.extend_from_slice(&current[..owned]);
         self.rebuilds += 1;
     }
 
-    /// Adds the contact force densities to `state.force` (refreshing the list if needed) and
-    /// keeps the contact energy.
-    pub fn add_forces(&mut self, body: &Body<D>, bonds: &Bonds, state: &mut State<D>) {
-        if self.stale(&state.current) {
-            self.rebuild(bonds, &state.current);
+    /// Adds the contact force densities to `state.force` of this process's nodes (refreshing
+    /// the list if needed) and keeps the contact energy of the whole body. In a distributed
+    /// run every rank calls it in the same steps (it exchanges the remote nodes).
+    pub fn add_forces(
+        &mut self,
+        body: &Body<D>,
+        bonds: &Bonds,
+        state: &mut State<D>,
+        share: Option<&Share>,
+    ) {
+        let owned = share.map_or(body.len(), |s| s.owned);
+        let stale = self.stale(&state.current[..owned]);
+        // Every rank rebuilds when some node of any rank moved, as one process does.
+        let stale = share.map_or(stale, |s| s.ranks.max_f64(stale as u8 as f64) > 0.0);
+        if let Some(s) = share {
+            let reach = self.settings.radius + self.settings.skin;
+            match &mut self.remote {
+                Some((remote, _)) if !stale => remote.refresh(s, &state.current),
+                _ => {
+                    let row_globals = match self.remote.take() {
+                        Some((_, g)) => g,
+                        None => local_globals(s, body.len()),
+                    };
+                    let remote = RemoteNodes::build(s, &state.current, &body.volumes, reach);
+                    self.remote = Some((remote, row_globals));
+                }
+            }
         }
+        let remote = self.remote.take();
+        let points = match &remote {
+            None => Points {
+                positions: &state.current,
+                volumes: &body.volumes,
+                globals: None,
+            },
+            Some((r, _)) => Points {
+                positions: &r.points,
+                volumes: &r.volumes,
+                globals: Some(&r.globals),
+            },
+        };
+        if stale {
+            let row_globals = remote.as_ref().map(|(_, g)| g.as_slice());
+            self.rebuild(bonds, &points, owned, row_globals);
+        }
+        let chunk_energy = self.forces(&points, &state.status, &mut state.force[..owned]);
+        self.energy = ordered_sum(share, chunk_energy.into_iter());
+        self.remote = remote;
+    }
+
+    /// Adds each owned node's contact force density over its candidates, in their order;
+    /// returns the contact energy of each chunk of `CHUNK` nodes.
+    fn forces(&self, points: &Points<D>, status: &[u8], force: &mut [Vector<D>]) -> Vec<f64> {
         let ContactSettings {
             radius: rc,
             stiffness: cs,
@@ -144,9 +224,8 @@ impl<const D: usize> NodeContact<D> {
             ..
         } = self.settings;
         let (offsets, pairs) = (&self.offsets, &self.pairs);
-        let (current, status, volumes) = (&state.current, &state.status, &body.volumes);
-        let chunk_energy: Vec<f64> = state
-            .force
+        let (current, volumes) = (points.positions, points.volumes);
+        force
             .par_chunks_mut(CHUNK)
             .enumerate()
             .map(|(c, forces)| {
@@ -179,8 +258,7 @@ impl<const D: usize> NodeContact<D> {
                 }
                 energy
             })
-            .collect();
-        self.energy = chunk_energy.iter().sum();
+            .collect()
     }
 }
 
@@ -272,6 +350,153 @@ impl<const D: usize> CellList<D> {
                     }
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deck::build::{build_model, build_model_with, Part};
+    use crate::deck::LoadedDeck;
+    use crate::distributed::partition::{bond_weights, ranges};
+    use crate::distributed::share::split;
+    use crate::distributed::thread_ranks::ThreadRanks;
+    use crate::solver::ranks::Ranks;
+    use std::path::Path;
+    use std::sync::Arc;
+
+    /// Two 20 mm × 5 mm blocks (1 600 nodes) cut apart at x = 10 mm.
+    const BLOCKS: &str = r#"
+version = 1
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+[discretization]
+type = "lattice"
+shape = { type = "rectangle", min = [0.0, 0.0], max = [0.02, 0.005] }
+spacing = 0.25e-3
+horizon_ratio = 3.0
+[material]
+type = "pmb"
+density = 1000.0
+youngs_modulus = 1e9
+critical_stretch = 10.0
+[[precracks]]
+type = "segment"
+start = [0.01, -0.001]
+end = [0.01, 0.006]
+[solver]
+type = "explicit"
+steps = 1
+"#;
+
+    fn settings() -> ContactSettings {
+        ContactSettings {
+            radius: 0.9 * 0.25e-3,
+            stiffness: 1e20,
+            horizon: 0.75e-3,
+            skin: 0.3 * 0.25e-3,
+        }
+    }
+
+    /// The displacement of the node at `x` in move `k`: the right block pushed into the left
+    /// one, and a ripple that brings some bonded neighbours within r_c.
+    fn displacement(x: &Vector<2>, k: usize) -> Vector<2> {
+        let push = if x[0] > 0.01 { -0.2e-3 } else { 0.0 } * (k as f64 + 1.0) / 3.0;
+        let ripple = 0.06e-3 * (x[0] * 9e3 + x[1] * 4e3 + k as f64).sin();
+        Vector::<2>::new(push + ripple, 0.5 * ripple)
+    }
+
+    /// A bond entry broken by a rule of the two nodes' global indices (the same at both ends).
+    fn broken(gi: u32, gj: u32) -> bool {
+        (gi + gj).is_multiple_of(5)
+    }
+
+    /// Contact force bits of every node and the energy bits, after each of three moves (the
+    /// second within the skin: no rebuild), on `size` ranks (1: one process, no share).
+    fn run(size: usize) -> Vec<(Vec<[u64; 2]>, u64)> {
+        let ld = LoadedDeck::from_str(BLOCKS, Path::new("blocks.toml")).unwrap();
+        let results = ThreadRanks::run(size, |ranks: Arc<dyn Ranks>| {
+            let mut globals = None;
+            let mut share = None;
+            let model = if size == 1 {
+                build_model::<2>(&ld).unwrap()
+            } else {
+                build_model_with::<2>(&ld, |body, families| {
+                    let weights = bond_weights(&body, families.rule);
+                    let r = ranges(&weights, size).unwrap();
+                    let p = &ld.deck.precracks;
+                    let s2 = split(&body, families.rule, p, &r, &*ranks).unwrap();
+                    globals = Some(s2.globals.clone());
+                    share = Some(Share {
+                        ranks: ranks.clone(),
+                        first: s2.owned.start,
+                        owned: s2.owned.len(),
+                        global_nodes: body.len(),
+                        halo: s2.halo,
+                    });
+                    Ok(Part {
+                        body: s2.body,
+                        bonds: s2.bonds,
+                        globals: Some(s2.globals),
+                    })
+                })
+                .unwrap()
+            };
+            let (body, bonds) = (&model.body, &model.bonds);
+            let global = |i: usize| globals.as_ref().map_or(i as u32, |g| g[i]);
+            let mut state = State::new(body, bonds, 0);
+            for i in 0..body.len() {
+                for b in bonds.family(i) {
+                    if broken(global(i), global(bonds.neighbors[b] as usize)) {
+                        state.status[b] = BROKEN;
+                    }
+                }
+            }
+            let mut contact = NodeContact::<2>::new(settings());
+            let owned = share.as_ref().map_or(body.len(), |s| s.owned);
+            (0..3)
+                .map(|k| {
+                    for i in 0..body.len() {
+                        let x = body.positions[i];
+                        state.current[i] = x + displacement(&x, if k == 1 { 0 } else { k });
+                        state.force[i] = Vector::zeros();
+                    }
+                    contact.add_forces(body, bonds, &mut state, share.as_ref());
+                    let forces: Vec<(u32, [u64; 2])> = (0..owned)
+                        .map(|i| {
+                            let f = state.force[i];
+                            (global(i), [f[0].to_bits(), f[1].to_bits()])
+                        })
+                        .collect();
+                    (forces, contact.energy.to_bits(), contact.rebuilds)
+                })
+                .collect::<Vec<_>>()
+        });
+        // Every rank's forces in global order, the energy as every rank has it.
+        (0..3)
+            .map(|k| {
+                let mut forces: Vec<(u32, [u64; 2])> =
+                    results.iter().flat_map(|r| r[k].0.clone()).collect();
+                forces.sort_by_key(|f| f.0);
+                let energies: Vec<u64> = results.iter().map(|r| r[k].1).collect();
+                assert!(energies.iter().all(|&e| e == energies[0]));
+                let rebuilds = results[0][k].2;
+                assert_eq!(rebuilds, [1, 1, 2][k], "move {k}");
+                (forces.into_iter().map(|f| f.1).collect(), energies[0])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn contact_on_ranks_is_the_one_process_contact_bit_for_bit() {
+        let one = run(1);
+        let pushed = one[2].0.iter().filter(|f| f[0] != 0).count();
+        assert!(pushed > 40, "contact acts ({pushed} nodes)");
+        assert!(f64::from_bits(one[2].1) > 0.0);
+        for size in [2, 3] {
+            assert!(run(size) == one, "{size} ranks");
         }
     }
 }

@@ -7,11 +7,69 @@
 
 use crate::body::Body;
 use crate::math::Vector;
+use crate::solver::ranks::Share;
 use crate::state::State;
 use rayon::prelude::*;
 
 /// Nodes per parallel chunk (fixed, so the reaction's sum order does not depend on threads).
 const CHUNK: usize = 4096;
+
+/// A node inside an impactor: its global index, the penalty force on it (N) and its penalty
+/// energy (J).
+type Contribution<const D: usize> = (usize, Vector<D>, f64);
+
+/// Σ of the nodes' forces and energies as one process sums them: each chunk of `CHUNK` nodes
+/// from zero in node order, then the chunks' sums in chunk order (a chunk with no node inside
+/// adds +0, which changes no sum). `all` is in global node order.
+fn chunked_sum<const D: usize>(all: &[Contribution<D>]) -> (Vector<D>, f64) {
+    let (mut total, mut energy) = (Vector::<D>::zeros(), 0.0);
+    let mut chunk: Option<(usize, Vector<D>, f64)> = None;
+    for &(i, f, e) in all {
+        match &mut chunk {
+            Some((c, t, w)) if *c == i / CHUNK => {
+                *t += f;
+                *w += e;
+            }
+            _ => {
+                if let Some((_, t, w)) = chunk {
+                    total += t;
+                    energy += w;
+                }
+                let (mut t, mut w) = (Vector::<D>::zeros(), 0.0);
+                t += f;
+                w += e;
+                chunk = Some((i / CHUNK, t, w));
+            }
+        }
+    }
+    if let Some((_, t, w)) = chunk {
+        total += t;
+        energy += w;
+    }
+    (total, energy)
+}
+
+/// Contributions as words for a transfer: the index (exact in f64 below 2^53), the force,
+/// the energy.
+fn pack<const D: usize>(list: &[Contribution<D>]) -> Vec<f64> {
+    let mut buf = Vec::with_capacity(list.len() * (D + 2));
+    for (i, f, e) in list {
+        buf.push(*i as f64);
+        buf.extend_from_slice(f.as_slice());
+        buf.push(*e);
+    }
+    buf
+}
+
+fn unpack<const D: usize>(words: &[f64]) -> Vec<Contribution<D>> {
+    words
+        .chunks_exact(D + 2)
+        .map(|w| {
+            let f = Vector::<D>::from_column_slice(&w[1..=D]);
+            (w[0] as usize, f, w[D + 1])
+        })
+        .collect()
+}
 
 /// The impactor's shape, about its reference point (`Impactor::position`).
 #[derive(Debug, Clone, Copy)]
@@ -116,36 +174,38 @@ impl<const D: usize> Impactor<D> {
         }
     }
 
-    /// Adds the penalty force densities F/V_i to `state.force`; keeps the reaction on the
-    /// impactor and the penalty energy.
-    fn add_forces(&mut self, body: &Body<D>, state: &mut State<D>) {
+    /// Adds the penalty force densities F/V_i to this process's nodes' `state.force`; keeps
+    /// the reaction on the impactor and the penalty energy, summed over every node of the
+    /// body (on every rank of a distributed run, the same bits).
+    fn add_forces(&mut self, body: &Body<D>, state: &mut State<D>, share: Option<&Share>) {
         let k = self.stiffness;
         let this = &*self;
+        let (first, owned) = share.map_or((0, body.len()), |s| (s.first, s.owned));
         let (current, volumes) = (&state.current, &body.volumes);
-        let chunks: Vec<(Vector<D>, f64)> = state
-            .force
+        let chunks: Vec<Vec<Contribution<D>>> = state.force[..owned]
             .par_chunks_mut(CHUNK)
             .enumerate()
             .map(|(c, forces)| {
-                let (mut total, mut energy) = (Vector::<D>::zeros(), 0.0);
+                let mut found = Vec::new();
                 for (m, f) in forces.iter_mut().enumerate() {
                     let i = c * CHUNK + m;
                     if let Some((p, n)) = this.penetration(&current[i]) {
                         // LAMMPS fix indent: F = K p² along the outward normal.
                         let force = n * (k * p * p);
                         *f += force / volumes[i];
-                        total += force;
-                        energy += k * p * p * p / 3.0;
+                        found.push((first + i, force, k * p * p * p / 3.0));
                     }
                 }
-                (total, energy)
+                found
             })
             .collect();
-        let (mut total, mut energy) = (Vector::<D>::zeros(), 0.0);
-        for (f, e) in chunks {
-            total += f;
-            energy += e;
-        }
+        let mine = chunks.concat();
+        let all = match share {
+            None => mine,
+            // Every rank's contributions, in rank order: the global node order.
+            Some(s) => unpack(&s.ranks.all_gather(&pack(&mine))),
+        };
+        let (total, energy) = chunked_sum(&all);
         self.force = -total;
         self.energy = energy;
     }
@@ -193,10 +253,11 @@ impl<const D: usize> Impactors<D> {
         }
     }
 
-    /// Adds every impactor's penalty forces to `state.force` at the current positions.
-    pub fn add_forces(&mut self, body: &Body<D>, state: &mut State<D>) {
+    /// Adds every impactor's penalty forces to `state.force` at the current positions (a
+    /// distributed run's: to its owned nodes, the reactions summed over every rank's).
+    pub fn add_forces(&mut self, body: &Body<D>, state: &mut State<D>, share: Option<&Share>) {
         for im in &mut self.list {
-            im.add_forces(body, state);
+            im.add_forces(body, state, share);
         }
     }
 
@@ -248,5 +309,56 @@ impl<const D: usize> Impactors<D> {
     /// Kinetic energy of the free impactors (J).
     pub fn kinetic_energy(&self) -> f64 {
         self.list.iter().map(|im| im.kinetic_energy()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one-process sum before contributions were listed: every chunk of `CHUNK` nodes
+    /// from zero, then every chunk's sum, empty ones included.
+    fn dense_sum(n: usize, all: &[Contribution<2>]) -> (Vector<2>, f64) {
+        let (mut total, mut energy) = (Vector::<2>::zeros(), 0.0);
+        for c in 0..n.div_ceil(CHUNK) {
+            let (mut t, mut w) = (Vector::<2>::zeros(), 0.0);
+            for &(_, f, e) in all.iter().filter(|x| x.0 / CHUNK == c) {
+                t += f;
+                w += e;
+            }
+            total += t;
+            energy += w;
+        }
+        (total, energy)
+    }
+
+    #[test]
+    fn listed_contributions_sum_as_the_chunks_do_whatever_the_ranks() {
+        // Nodes inside in three chunks, with forces of mixed magnitudes and signs (the sum
+        // rounds differently if grouped otherwise).
+        let n = 5 * CHUNK;
+        let all: Vec<Contribution<2>> = [3, 17, 4095, 4096, 4100, 9000, 12287, 16000]
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| {
+                let x = (k as f64 + 1.0).powi(7) * if k % 2 == 0 { 1.0 } else { -1e-9 };
+                (i, Vector::<2>::new(x, 0.1 * x + 1e-3), x.abs() * 1e-3 + 0.3)
+            })
+            .collect();
+        let (t, e) = dense_sum(n, &all);
+        let (t2, e2) = chunked_sum(&all);
+        assert_eq!(
+            (t[0].to_bits(), t[1].to_bits()),
+            (t2[0].to_bits(), t2[1].to_bits())
+        );
+        assert_eq!(e.to_bits(), e2.to_bits());
+        // Ranks split at node chunks of 256, not at impactor chunks: their lists, sent as
+        // words and put one after the other, are the same list.
+        for split in [256, 4096 + 256, 12288 - 256] {
+            let (a, b): (Vec<_>, Vec<_>) = all.iter().copied().partition(|x| x.0 < split);
+            let mut words = pack(&a);
+            words.extend(pack(&b));
+            assert_eq!(unpack::<2>(&words), all);
+        }
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod adaptive_dt;
 pub mod contact;
+pub mod contact_halo;
 pub mod dissipation;
 pub mod forces;
 pub mod impactor;

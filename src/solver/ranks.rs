@@ -39,6 +39,8 @@ pub trait Ranks: Send + Sync {
     /// Rank r's part from rank 0: rank 0 calls `part(r)` for every rank, one at a time (so it
     /// holds one part at once), and each rank returns its own (the others never call `part`).
     fn scatter(&self, part: &mut dyn FnMut(usize) -> Vec<f64>) -> Vec<f64>;
+    /// Every rank's `local` on every rank, in rank order.
+    fn all_gather(&self, local: &[f64]) -> Vec<f64>;
 }
 
 /// One rank's share of a distributed run.

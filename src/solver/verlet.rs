@@ -5,6 +5,7 @@ use super::contact::NodeContact;
 use super::impactor::{Impactor, Impactors};
 use super::ranks::{agreed_uniform, ordered_fold, ordered_sum, Share};
 use super::ForceEngine;
+use crate::analysis::BrokenHalf;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::counters::Counters;
@@ -12,6 +13,7 @@ use crate::damage::Damage;
 use crate::loading::Loading;
 use crate::material::{Material, PointError};
 use crate::math::Vector;
+use crate::observe::crack_surface::broken_halves;
 use crate::state::State;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -243,10 +245,16 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
     /// Adds the node–node contact and impactor forces to the internal force densities.
     fn add_contact_forces(&mut self) {
         if let Some(c) = &mut self.contact {
-            c.add_forces(&self.body, &self.bonds, &mut self.state);
+            c.add_forces(
+                &self.body,
+                &self.bonds,
+                &mut self.state,
+                self.share.as_deref(),
+            );
         }
         if !self.impactors.is_empty() {
-            self.impactors.add_forces(&self.body, &mut self.state);
+            self.impactors
+                .add_forces(&self.body, &mut self.state, self.share.as_deref());
         }
     }
 
@@ -543,6 +551,18 @@ pub trait Fields<const D: usize> {
     /// The impactors and their state.
     fn impactors(&self) -> &[Impactor<D>] {
         &[]
+    }
+    /// The broken halves of the bonds, in node then bond order
+    /// (`observe::crack_surface::broken_halves`).
+    fn broken_halves(&self) -> Vec<BrokenHalf<D>> {
+        let bonds = self.bonds();
+        broken_halves(
+            self.body(),
+            &bonds.offsets,
+            &bonds.neighbors,
+            self.quadrature(),
+            &self.state().status,
+        )
     }
 }
 
