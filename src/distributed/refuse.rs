@@ -3,7 +3,6 @@
 
 use crate::deck::build::MaterialChoice;
 use crate::deck::schema::Discretization;
-use crate::deck::solver_settings::solver_settings;
 use crate::deck::LoadedDeck;
 use crate::run::{DamageAndReports, RunControl, RunError};
 
@@ -17,15 +16,9 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
 /// The first feature of the deck (or of the run's control) not yet distributed, if any.
 pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
-    let settings = solver_settings(deck);
     let analysis = deck.analysis.as_ref();
     let found = [
         (control.restart, "a restart from a checkpoint (--restart)"),
-        (
-            settings.quasi_static.is_some(),
-            "the quasi-static solver ([solver] quasi_static)",
-        ),
-        (!deck.stages.is_empty(), "a staged run ([[stages]])"),
         (
             deck.contact.is_some() || !deck.impactors.is_empty(),
             "contact ([contact], [[impactors]])",
@@ -163,6 +156,16 @@ end_time = 1e-6
         let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
         let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
         assert_eq!(refused(&src, &fresh), None);
+        // The quasi-static solvers, and a staged run.
+        let explicit = "type = \"explicit\"\nend_time = 1e-6";
+        for method in ["adr", "ncg"] {
+            let quasi_static =
+                format!("type = \"quasi_static\"\nload_steps = 2\nmethod = \"{method}\"");
+            let src = deck("type = \"pmb\"", "").replace(explicit, &quasi_static);
+            assert_eq!(refused(&src, &fresh), None, "{method}");
+        }
+        let stage = format!("[[stages]]\n[stages.solver]\n{explicit}");
+        assert_eq!(refused(&deck("type = \"pmb\"", &stage), &fresh), None);
     }
 
     #[test]

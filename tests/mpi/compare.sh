@@ -11,7 +11,9 @@ ranks=${RANKS:-"2 3"}
 if [ $# -eq 0 ]; then
   set -- tests/mpi/pmb_notched.toml tests/mpi/pmb_plate_3d.toml tests/mpi/lps_energy_notched.toml \
     tests/mpi/pmb_bilinear_notched.toml tests/mpi/pmb_energy_adaptive.toml tests/mpi/pmb_nbnug_pores.toml \
-    tests/mpi/lps_energy_free_mesh.toml tests/mpi/pmb_point_cloud.toml
+    tests/mpi/lps_energy_free_mesh.toml tests/mpi/pmb_point_cloud.toml \
+    tests/mpi/pmb_adr_notched.toml tests/mpi/lps_energy_adr_notched.toml tests/mpi/pmb_ncg_notched.toml \
+    tests/mpi/pmb_staged_preload_release.toml
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
