@@ -432,19 +432,28 @@ pub fn build_model_with<const D: usize>(
         ),
         bytes_per_node: per_node,
     };
+    // The stages' no-fail flags of every node, the ghosts' too (a part's node sets hold its
+    // owned nodes only, but a bond reads the flags of both its ends).
+    let stage_no_fail = super::stages::stage_no_fail(deck, &body);
     let Part {
         body,
         bonds,
         globals,
     } = part(body, &families)?;
-    let material_of = match globals {
-        Some(g) => g.iter().map(|&i| material_of[i as usize]).collect(),
-        None => material_of,
+    let (material_of, stage_no_fail) = match globals {
+        Some(g) => {
+            let local = |whole: &[bool]| g.iter().map(|&i| whole[i as usize]).collect();
+            (
+                g.iter().map(|&i| material_of[i as usize]).collect(),
+                stage_no_fail.iter().map(|m| local(m)).collect(),
+            )
+        }
+        None => (material_of, stage_no_fail),
     };
 
     let loading =
         super::stages::loading(&body, &deck.boundary_conditions, &deck.loads, &deck.solver);
-    let stages = super::stages::further_stages(deck, &body);
+    let stages = super::stages::further_stages(deck, &body, stage_no_fail);
     let initial_velocities = deck
         .initial_velocities
         .iter()

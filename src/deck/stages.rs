@@ -81,22 +81,39 @@ pub fn no_fail_mask<const D: usize>(body: &Body<D>, sets: &[String]) -> Vec<bool
     mask
 }
 
-/// The `[[stages]]` entries of a deck, built in order (the deck's own stage is the model's).
-pub fn further_stages<const D: usize>(deck: &Deck, body: &Body<D>) -> Vec<StagePlan<D>> {
-    let (mut conditions, mut loads, mut no_fail) =
-        (&deck.boundary_conditions, &deck.loads, &deck.no_fail);
+/// The no-fail flags of each `[[stages]]` entry (the sets it names, or the stage before's),
+/// per node of `body`.
+pub fn stage_no_fail<const D: usize>(deck: &Deck, body: &Body<D>) -> Vec<Vec<bool>> {
+    let mut no_fail = &deck.no_fail;
     deck.stages
         .iter()
+        .map(|stage| {
+            no_fail = stage.no_fail.as_ref().unwrap_or(no_fail);
+            no_fail_mask(body, no_fail)
+        })
+        .collect()
+}
+
+/// The `[[stages]]` entries of a deck, built in order (the deck's own stage is the model's),
+/// with their no-fail flags (`stage_no_fail`, per node of `body`).
+pub fn further_stages<const D: usize>(
+    deck: &Deck,
+    body: &Body<D>,
+    no_fail: Vec<Vec<bool>>,
+) -> Vec<StagePlan<D>> {
+    let (mut conditions, mut loads) = (&deck.boundary_conditions, &deck.loads);
+    deck.stages
+        .iter()
+        .zip(no_fail)
         .enumerate()
-        .map(|(k, stage)| {
+        .map(|(k, (stage, no_fail))| {
             conditions = stage.boundary_conditions.as_ref().unwrap_or(conditions);
             loads = stage.loads.as_ref().unwrap_or(loads);
-            no_fail = stage.no_fail.as_ref().unwrap_or(no_fail);
             StagePlan {
                 name: stage_name(deck, k + 1),
                 settings: settings_of(&stage.solver),
                 loading: loading(body, conditions, loads, &stage.solver),
-                no_fail: no_fail_mask(body, no_fail),
+                no_fail,
                 history_interval: deck.stage_history_interval(k + 1),
             }
         })

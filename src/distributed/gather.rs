@@ -7,6 +7,7 @@
 use crate::analysis::BrokenHalf;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
+use crate::checkpoint::DriverState;
 use crate::math::Vector;
 use crate::observe::{Observer, StepView};
 use crate::run::{RunError, ViewSource};
@@ -147,6 +148,28 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         root.state.status = status?.into_iter().map(|b| b as u8).collect();
         root.state.history = history?;
         Some(&root.state)
+    }
+
+    fn whole_driver(&mut self, mut driver: DriverState<D>) -> DriverState<D> {
+        // The displacements at the start of the quasi-static solver's last committed step
+        // (its predictor's), of every node in the global order.
+        let previous = driver
+            .quasi_static
+            .as_mut()
+            .and_then(|m| m.previous.as_mut());
+        if let Some((_, u)) = previous {
+            let local: Vec<f64> = u[..self.owned]
+                .iter()
+                .flat_map(|v| v.iter().copied())
+                .collect();
+            if let Some(all) = self.ranks.gather(&local) {
+                *u = all
+                    .chunks_exact(D)
+                    .map(Vector::<D>::from_column_slice)
+                    .collect();
+            }
+        }
+        driver
     }
 }
 

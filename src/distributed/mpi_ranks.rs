@@ -66,6 +66,29 @@ impl Ranks for MpiRanks {
         acc
     }
 
+    fn chain_words(
+        &self,
+        words: usize,
+        local: &mut dyn FnMut(Option<&[f64]>) -> Vec<f64>,
+    ) -> Vec<f64> {
+        let w = SimpleCommunicator::world();
+        let before = (self.rank > 0).then(|| {
+            let mut a = vec![0.0f64; words];
+            w.process_at_rank(self.rank as i32 - 1)
+                .receive_into_with_tag(&mut a[..], CHAIN_TAG);
+            a
+        });
+        let mut acc = local(before.as_deref());
+        assert_eq!(acc.len(), words, "a chain of {words} words");
+        if self.rank + 1 < self.size {
+            w.process_at_rank(self.rank as i32 + 1)
+                .send_with_tag(&acc[..], CHAIN_TAG);
+        }
+        w.process_at_rank(self.size as i32 - 1)
+            .broadcast_into(&mut acc[..]);
+        acc
+    }
+
     fn sum_u64(&self, x: u64) -> u64 {
         let mut y = 0u64;
         SimpleCommunicator::world().all_reduce_into(&x, &mut y, SystemOperation::sum());

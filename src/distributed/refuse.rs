@@ -14,26 +14,23 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
     ))
 }
 
-/// The first feature of the deck not yet distributed, if any (a restart continues any deck
-/// that runs distributed: `distributed::restart`).
-pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Result<(), RunError> {
+/// The first feature of the deck (or of the run's control) not yet distributed, if any.
+pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
-    let settings = solver_settings(deck);
-    let found = [
-        (
-            settings.quasi_static.is_some(),
-            "the quasi-static solver ([solver] quasi_static)",
-        ),
-        (!deck.stages.is_empty(), "a staged run ([[stages]])"),
-        (
-            !deck.materials.is_empty() || !deck.blocks.is_empty(),
+    if !deck.materials.is_empty() || !deck.blocks.is_empty() {
+        return Err(refusal(
             "several materials ([materials], [[blocks]])",
-        ),
-    ]
-    .into_iter()
-    .find(|(refused, _)| *refused);
-    if let Some((_, feature)) = found {
-        return Err(refusal(feature, ranks));
+            ranks,
+        ));
+    }
+    // `distributed::restart` continues explicit runs; the quasi-static solver's memory of the
+    // last equilibrium and a stage's start are not yet handed to the ranks from a checkpoint.
+    let quasi_static = solver_settings(deck).quasi_static.is_some();
+    if control.restart && (quasi_static || !deck.stages.is_empty()) {
+        return Err(refusal(
+            "a restart of a quasi-static or staged run (--restart)",
+            ranks,
+        ));
     }
     // Lattices (with pores), NB-NUG grids, free meshes and point clouds whose nodes share one
     // horizon (`distributed::share` refuses the others when it builds the families); the
@@ -167,6 +164,16 @@ end_time = 1e-6
         let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
         let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
         assert_eq!(refused(&src, &fresh), None);
+        // The quasi-static solvers, and a staged run.
+        let explicit = "type = \"explicit\"\nend_time = 1e-6";
+        for method in ["adr", "ncg"] {
+            let quasi_static =
+                format!("type = \"quasi_static\"\nload_steps = 2\nmethod = \"{method}\"");
+            let src = deck("type = \"pmb\"", "").replace(explicit, &quasi_static);
+            assert_eq!(refused(&src, &fresh), None, "{method}");
+        }
+        let stage = format!("[[stages]]\n[stages.solver]\n{explicit}");
+        assert_eq!(refused(&deck("type = \"pmb\"", &stage), &fresh), None);
     }
 
     #[test]
@@ -180,7 +187,7 @@ end_time = 1e-6
                 &fresh,
                 "the correspondence model",
             ),
-            (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a staged run"),
+            (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a restart of a quasi-static or staged run"),
         ] {
             let message = refused(&deck(material, extra), control).expect("refused");
             assert!(

@@ -112,7 +112,7 @@ fn not_distributed(ld: &LoadedDeck, what: &str, ranks: usize) -> crate::deck::De
 
 fn run_model<const D: usize, M: Material<D>>(
     ld: &LoadedDeck,
-    model: Model<D>,
+    mut model: Model<D>,
     material: M,
     rest: DamageAndReports,
     (opts, control): (&RunOptions, &RunControl),
@@ -150,6 +150,8 @@ fn run_model<const D: usize, M: Material<D>>(
         halo,
     };
     let pores = model.pores.clone();
+    let plans = std::mem::take(&mut model.stages);
+    let staged = !plans.is_empty();
     let (mut sim, report) = prepare_shared(ld, model, material, rest, Some(share))?;
     let report = whole_report::<D, M>(report, &sim, grid, &*ranks);
     // Node 0's density on every rank (the crack tip's Rayleigh speed reads it on rank 0).
@@ -169,7 +171,7 @@ fn run_model<const D: usize, M: Material<D>>(
             opts,
             (&body, densities[0]),
             &report,
-            (false, restarting),
+            (staged, restarting),
             at,
         )?;
         (Some(attached), Some((body, densities)))
@@ -196,13 +198,15 @@ fn run_model<const D: usize, M: Material<D>>(
     let started = Instant::now();
     let result = {
         let stop_after = control.stop_after_step;
-        let mut watch = Watch::new(&mut observers, checkpoints, stop_after, resume, false)
-            .with_source(&mut gather);
+        // Progress inside long quasi-static load steps on rank 0 only.
+        let mut watch = Watch::new(&mut observers, checkpoints, stop_after, resume, staged)
+            .with_source(&mut gather)
+            .with_progress(root && !opts.quiet);
         drive_stages(
             &mut sim,
             solver_settings(&ld.deck),
             &report,
-            Vec::new(),
+            plans,
             &mut watch,
         )
     };

@@ -104,6 +104,19 @@ impl Ranks for ThreadRanks {
         }
         self.everyone(&[acc])[self.size - 1][0]
     }
+    fn chain_words(
+        &self,
+        words: usize,
+        local: &mut dyn FnMut(Option<&[f64]>) -> Vec<f64>,
+    ) -> Vec<f64> {
+        let before = (self.rank > 0).then(|| self.receive(self.rank - 1, Kind::Chain));
+        let acc = local(before.as_deref());
+        debug_assert_eq!(acc.len(), words);
+        if self.rank + 1 < self.size {
+            self.send(self.rank + 1, Kind::Chain, acc.clone());
+        }
+        self.everyone(&acc).swap_remove(self.size - 1)
+    }
     fn sum_u64(&self, x: u64) -> u64 {
         self.everyone(&[x as f64]).iter().map(|w| w[0] as u64).sum()
     }

@@ -523,6 +523,11 @@ pub trait ViewSource<const D: usize> {
     /// The whole body's state for a checkpoint, on the process that writes it (`None` on
     /// the others); every rank calls it when a checkpoint falls due.
     fn whole_state(&mut self, state: &State<D>) -> Option<&State<D>>;
+
+    /// The whole body's driver state for a checkpoint from this rank's `driver` (the
+    /// quasi-static solver's memory holds per-node displacements), on the process that
+    /// writes it; every rank calls it when a checkpoint falls due.
+    fn whole_driver(&mut self, driver: DriverState<D>) -> DriverState<D>;
 }
 
 impl<'a, const D: usize> Watch<'a, D> {
@@ -616,6 +621,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             match self.source.as_deref_mut() {
                 None => c.write(&sim.state, &driver)?,
                 Some(source) => {
+                    let driver = source.whole_driver(driver);
                     if let Some(whole) = source.whole_state(&sim.state) {
                         c.write(whole, &driver)?;
                     }

@@ -16,6 +16,7 @@
 //! (`QuasiStaticSettings::exact_line_search` keeps that search). The minimiser stops on the
 //! caller's residual test either way: the equilibria satisfy the same tolerance. Bonds do not break during a minimisation (the caller freezes the damage state).
 
+use super::ranks::{chunked_sums, Share};
 use super::{Simulation, StepError};
 use crate::material::Material;
 use crate::math::Vector;
@@ -24,7 +25,9 @@ use rayon::prelude::*;
 /// Fixed chunk for deterministic parallel sums.
 const CHUNK: usize = 4096;
 
-/// The minimiser's buffers: preconditioner, search direction, residuals.
+/// The minimiser's buffers: preconditioner, search direction, residuals. A distributed run's
+/// rank minimises over its owned nodes (the ghosts take their owners' displacements at each
+/// force evaluation), and its dot products continue the one process's sums across ranks.
 pub struct Ncg<const D: usize> {
     /// 1/(V_i λ_i) per node: the inverse of the diagonal stiffness bound.
     inverse_diagonal: Vec<f64>,
@@ -46,7 +49,7 @@ impl<const D: usize> Ncg<D> {
             .collect();
         Ncg {
             inverse_diagonal,
-            direction: vec![Vector::zeros(); sim.body.len()],
+            direction: vec![Vector::zeros(); sim.owned()],
             exact_line_search,
         }
     }
@@ -60,11 +63,15 @@ impl<const D: usize> Ncg<D> {
         max_evaluations: u64,
         mut converged: impl FnMut(&Simulation<D, M>, u64) -> bool,
     ) -> Result<Option<u64>, StepError> {
-        let n_free = sim
-            .constrained_mask
+        let share = sim.share.clone();
+        let dot = |a: &[Vector<D>], b: &[Vector<D>]| dot(share.as_deref(), a, b);
+        let n_free = sim.constrained_mask[..sim.owned()]
             .iter()
             .map(|m| m[..D].iter().filter(|c| !**c).count())
-            .sum::<usize>()
+            .sum::<usize>();
+        let n_free = share
+            .as_deref()
+            .map_or(n_free, |s| s.ranks.sum_u64(n_free as u64) as usize)
             .max(1);
         let mut evaluations = 0u64;
         let mut r = self.residual(sim);
@@ -137,9 +144,10 @@ impl<const D: usize> Ncg<D> {
         d: &[Vector<D>],
         alpha: f64,
     ) -> Result<(), StepError> {
-        let positions = &sim.body.positions;
+        let owned = sim.owned();
+        let positions = &sim.body.positions[..owned];
         let s = &mut sim.state;
-        (&mut s.u, &mut s.current)
+        (&mut s.u[..owned], &mut s.current[..owned])
             .into_par_iter()
             .zip(d.par_iter())
             .zip(positions.par_iter())
@@ -151,10 +159,10 @@ impl<const D: usize> Ncg<D> {
         Ok(())
     }
 
-    /// r = V (f + b) on the free components, 0 on the constrained ones.
+    /// r = V (f + b) on the free components, 0 on the constrained ones (owned nodes).
     fn residual<M: Material<D>>(&self, sim: &Simulation<D, M>) -> Vec<Vector<D>> {
         let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
-        (0..s.u.len())
+        (0..sim.owned())
             .into_par_iter()
             .map(|i| {
                 Vector::<D>::from_fn(|k, _| {
@@ -176,12 +184,14 @@ impl<const D: usize> Ncg<D> {
     }
 }
 
-/// Σ a_i·b_i in fixed chunks, summed in order (the same for any thread count).
-fn dot<const D: usize>(a: &[Vector<D>], b: &[Vector<D>]) -> f64 {
-    let parts: Vec<f64> = a
-        .par_chunks(CHUNK)
-        .zip(b.par_chunks(CHUNK))
-        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.dot(y)).sum())
-        .collect();
-    parts.iter().sum()
+/// Σ a_i·b_i over the owned nodes in fixed chunks of the node order, each chunk summed as
+/// `Iterator::sum` does and the chunks' sums then summed in order (the same for any thread
+/// or rank count).
+fn dot<const D: usize>(share: Option<&Share>, a: &[Vector<D>], b: &[Vector<D>]) -> f64 {
+    // `Iterator::sum`'s start (−0.0): the sums are its left folds.
+    let zero: f64 = std::iter::empty::<f64>().sum();
+    let [sum] = chunked_sums(share, a.len().min(b.len()), CHUNK, [zero], |i, [acc]| {
+        *acc += a[i].dot(&b[i]);
+    });
+    sum
 }

@@ -69,6 +69,7 @@
 //! equilibrium path; exact for a proportional elastic step).
 
 use super::ncg::Ncg;
+use super::ranks::{chunked_sums, ordered_folds, ordered_sum};
 use super::{Simulation, StepError};
 use crate::material::Material;
 use crate::math::Vector;
@@ -451,11 +452,13 @@ impl<const D: usize> QuasiStatic<D> {
         if let Some((t_prev, u_prev)) = self.previous.as_ref().filter(|_| self.predictor) {
             // The last step's increment, scaled to this one, on the free components.
             let ratio = (t1 - t0) / (t0 - t_prev);
+            // Owned nodes only: the ghosts take their owners' at the next force evaluation.
+            let owned = sim.owned();
             let (mask, positions) = (&sim.constrained_mask, &sim.body.positions);
             let s = &mut sim.state;
-            (&mut s.u, &mut s.current)
+            (&mut s.u[..owned], &mut s.current[..owned])
                 .into_par_iter()
-                .zip(u_prev.par_iter())
+                .zip(u_prev[..owned].par_iter())
                 .enumerate()
                 .with_min_len(4096)
                 .for_each(|(i, ((u, y), up))| {
@@ -502,7 +505,7 @@ impl<const D: usize> QuasiStatic<D> {
             Err(StepError::NotConverged { .. }) if residual.is_finite() => (budget, false),
             Err(e) => return Err(e),
         };
-        self.largest_load = self.largest_load.max(self.residual(sim).2);
+        self.largest_load = self.largest_load.max(self.residual(sim).1);
         self.previous = Some((t0, u0));
         sim.state.step += 1;
         Ok(Probe {
@@ -572,7 +575,7 @@ impl<const D: usize> QuasiStatic<D> {
             return Ok(None);
         }
         self.ticker.end(&report, true);
-        self.largest_load = self.largest_load.max(self.residual(sim).2);
+        self.largest_load = self.largest_load.max(self.residual(sim).1);
         sim.state.external_work += self.step_work(sim, &u0, &load0);
         self.previous = Some((t0, u0));
         sim.state.dt = t1 - t0;
@@ -596,8 +599,8 @@ impl<const D: usize> QuasiStatic<D> {
             return match found {
                 Some(evaluations) => Ok(evaluations),
                 None => {
-                    let (residual, node, _) = self.residual(sim);
-                    Err(self.not_converged(sim, max, residual, node))
+                    let residual = self.residual(sim).0;
+                    Err(self.not_converged(sim, max, residual))
                 }
             };
         }
@@ -653,18 +656,28 @@ impl<const D: usize> QuasiStatic<D> {
         &self,
         sim: &mut Simulation<D, M>,
     ) -> Result<(f64, u64), StepError> {
-        let n = sim.body.len();
+        // The owned nodes (all in one process): ghosts take their owners' displacements at
+        // each force evaluation, and every sum continues the one process's order.
+        let n = sim.owned();
+        let share = sim.share.clone();
+        let share = share.as_deref();
+        let first = share.map_or(0, |s| s.first);
         let mask = sim.constrained_mask.clone();
         let free = |i: usize, k: usize| !mask[i][k] && self.mass[i] > 0.0;
         // The length scale: the body's bounding box; a displacement of 1e-9 of it stretches
         // a bond a thousand times shorter by 1e-6 at most, far inside the linear range.
-        let (lo, hi) = sim.body.positions.iter().fold(
+        let (mut lo, mut hi) = sim.body.positions[..n].iter().fold(
             (
                 Vector::<D>::repeat(f64::INFINITY),
                 Vector::<D>::repeat(f64::NEG_INFINITY),
             ),
             |(lo, hi), x| (lo.inf(x), hi.sup(x)),
         );
+        if let Some(s) = share {
+            for k in 0..D {
+                (lo[k], hi[k]) = (s.ranks.min_f64(lo[k]), s.ranks.max_f64(hi[k]));
+            }
+        }
         let eps = 1e-9 * (hi - lo).norm();
         if !(eps > 0.0) {
             return Ok((0.0, 0));
@@ -675,12 +688,14 @@ impl<const D: usize> QuasiStatic<D> {
             .map(|i| sim.state.force[i] + sim.state.body_force[i])
             .collect();
         let u0 = sim.state.u.clone();
-        // A start with every mode in it: a fixed pseudo-random pattern in [-1, 1].
+        // A start with every mode in it: a fixed pseudo-random pattern in [-1, 1] (of the
+        // global node index).
         let mut x: Vec<Vector<D>> = (0..n)
             .map(|i| {
                 Vector::<D>::from_fn(|k, _| {
                     if free(i, k) {
-                        let h = ((i * D + k) as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                        let h =
+                            (((first + i) * D + k) as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
                         ((h >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
                     } else {
                         0.0
@@ -715,15 +730,16 @@ impl<const D: usize> QuasiStatic<D> {
                 .collect();
             // The Rayleigh quotient in the inner product weighted by λ_i V_i, in which
             // λ⁻¹K is symmetric: never above the largest eigenvalue.
-            let (mut num, mut den) = (0.0, 0.0);
-            for i in 0..n {
-                num += weight[i] * x[i].dot(&y[i]);
-                den += weight[i] * x[i].dot(&x[i]);
-            }
+            let [num, den] = ordered_folds(share, n, [0.0, 0.0], |i, [num, den]| {
+                *num += weight[i] * x[i].dot(&y[i]);
+                *den += weight[i] * x[i].dot(&x[i]);
+            });
             if den > 0.0 && (num / den).is_finite() {
                 rho = rho.max(num / den);
             }
             let largest = y.iter().map(|v| v.amax()).fold(0.0, f64::max);
+            // The largest over every rank (exact in any order; never NaN: f64::max drops it).
+            let largest = share.map_or(largest, |s| s.ranks.max_f64(largest));
             if !(largest > 0.0 && largest.is_finite()) {
                 break;
             }
@@ -735,17 +751,18 @@ impl<const D: usize> QuasiStatic<D> {
     /// One ADR relaxation (see the module docs) with the masses in use.
     fn adr<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
         let tol = self.settings.tolerance;
-        let (mut residual, ..) = self.residual(sim);
+        let mut residual = self.residual(sim).0;
         let start_residual = residual;
+        // The owned nodes: the ghosts take their owners' displacements at each evaluation.
+        let owned = sim.owned();
         let mut n = 0u64;
         while residual > tol {
             if n >= self.settings.max_iterations {
-                let (_, node, _) = self.residual(sim);
-                return Err(self.not_converged(sim, n, residual, node));
+                return Err(self.not_converged(sim, n, residual));
             }
             // Out-of-balance acceleration F/λ on the free components.
             let (s, mask, mass) = (&sim.state, &sim.constrained_mask, &self.mass);
-            self.acceleration
+            self.acceleration[..owned]
                 .par_iter_mut()
                 .enumerate()
                 .with_min_len(4096)
@@ -763,16 +780,21 @@ impl<const D: usize> QuasiStatic<D> {
             let c = if first {
                 0.0
             } else {
-                self.damping(&s.u, &self.acceleration)
+                self.damping(sim, &self.acceleration)
             };
             let (velocity, previous, accel) = (
-                &mut self.velocity,
-                &mut self.previous_acceleration,
-                &self.acceleration,
+                &mut self.velocity[..owned],
+                &mut self.previous_acceleration[..owned],
+                &self.acceleration[..owned],
             );
-            let positions = &sim.body.positions;
+            let positions = &sim.body.positions[..owned];
             let s = &mut sim.state;
-            (&mut s.u, &mut s.current, velocity, previous)
+            (
+                &mut s.u[..owned],
+                &mut s.current[..owned],
+                velocity,
+                previous,
+            )
                 .into_par_iter()
                 .zip(accel.par_iter())
                 .zip(positions.par_iter())
@@ -793,38 +815,32 @@ impl<const D: usize> QuasiStatic<D> {
             self.ticker.tick(n, residual);
             if !residual.is_finite() || residual > 1e6 * start_residual.max(tol) {
                 sim.check_finite()?;
-                let (_, node, _) = self.residual(sim);
-                return Err(self.not_converged(sim, n, residual, node));
+                return Err(self.not_converged(sim, n, residual));
             }
         }
         Ok(n)
     }
 
     /// c_n = 2 sqrt(uᵀKu / uᵀu) from the local diagonal stiffness (Kilic & Madenci 2010),
-    /// 0 when not positive, at most 2; sums in a fixed order.
-    fn damping(&self, u: &[Vector<D>], accel: &[Vector<D>]) -> f64 {
-        let terms: Vec<(f64, f64)> = u
-            .par_chunks(4096)
-            .zip(accel.par_chunks(4096))
-            .zip(self.velocity.par_chunks(4096))
-            .zip(self.previous_acceleration.par_chunks(4096))
-            .map(|(((u, a), v), p)| {
-                let (mut num, mut den) = (0.0, 0.0);
-                for i in 0..u.len() {
-                    for k in 0..D {
-                        if v[i][k] != 0.0 {
-                            let stiffness = -(a[i][k] - p[i][k]) / v[i][k];
-                            num += u[i][k] * stiffness * u[i][k];
-                            den += u[i][k] * u[i][k];
-                        }
+    /// 0 when not positive, at most 2; sums in fixed chunks of the node order (the same for
+    /// any thread or rank count).
+    fn damping<M: Material<D>>(&self, sim: &Simulation<D, M>, accel: &[Vector<D>]) -> f64 {
+        let (u, v, p) = (&sim.state.u, &self.velocity, &self.previous_acceleration);
+        let [num, den] = chunked_sums(
+            sim.share.as_deref(),
+            sim.owned(),
+            RESIDUAL_CHUNK,
+            [0.0, 0.0],
+            |i, [num, den]| {
+                for k in 0..D {
+                    if v[i][k] != 0.0 {
+                        let stiffness = -(accel[i][k] - p[i][k]) / v[i][k];
+                        *num += u[i][k] * stiffness * u[i][k];
+                        *den += u[i][k] * u[i][k];
                     }
                 }
-                (num, den)
-            })
-            .collect();
-        let (num, den) = terms
-            .iter()
-            .fold((0.0, 0.0), |(a, b), (n, d)| (a + n, b + d));
+            },
+        );
         if num > 0.0 && den > 0.0 {
             (2.0 * (num / den).sqrt()).min(2.0)
         } else {
@@ -832,40 +848,42 @@ impl<const D: usize> QuasiStatic<D> {
         }
     }
 
-    /// The relative residual, the node with the largest out-of-balance force, and the squared
-    /// norm of the loading forces it is measured against.
-    pub fn residual<M: Material<D>>(&self, sim: &Simulation<D, M>) -> (f64, usize, f64) {
+    /// The relative residual, and the squared norm of the loading forces it is measured
+    /// against.
+    pub fn residual<M: Material<D>>(&self, sim: &Simulation<D, M>) -> (f64, f64) {
         relative_residual(sim, self.largest_load)
     }
 
+    /// The error of a relaxation that did not converge, naming the node with the largest
+    /// out-of-balance force (every rank of a distributed run calls it, and returns the same
+    /// error).
     fn not_converged<M: Material<D>>(
         &self,
         sim: &Simulation<D, M>,
         iterations: u64,
         residual: f64,
-        node: usize,
     ) -> StepError {
+        let (node, position) = worst_node(sim);
         StepError::NotConverged {
             step: sim.state.step + 1,
             time: sim.state.time,
             what: format!(
-                "relative residual {residual:.3e} after {iterations} {} (tolerance {:.1e}, max_iterations {}); the largest out-of-balance force is at node {node}, x = {:?}; raise max_iterations or mass_factor, or use smaller load steps",
+                "relative residual {residual:.3e} after {iterations} {} (tolerance {:.1e}, max_iterations {}); the largest out-of-balance force is at node {node}, x = {position}; raise max_iterations or mass_factor, or use smaller load steps",
                 match self.settings.method {
                     EquilibriumMethod::Adr => "ADR iterations",
                     EquilibriumMethod::Ncg => "force evaluations of conjugate gradients",
                 },
                 self.settings.tolerance,
                 self.settings.max_iterations,
-                sim.body.positions[node].iter().collect::<Vec<_>>()
             ),
         }
     }
 
     /// The external forces at the constrained components (−V (f + b), what holds them) and
-    /// the body forces V b on the free ones, per node.
+    /// the body forces V b on the free ones, per owned node.
     fn applied_forces<M: Material<D>>(&self, sim: &Simulation<D, M>) -> Vec<Vector<D>> {
         let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
-        (0..s.u.len())
+        (0..sim.owned())
             .map(|i| {
                 Vector::<D>::from_fn(|k, _| {
                     if mask[i][k] {
@@ -878,7 +896,8 @@ impl<const D: usize> QuasiStatic<D> {
             .collect()
     }
 
-    /// Work of the external forces over the step between two equilibria (trapezoidal rule).
+    /// Work of the external forces over the step between two equilibria (trapezoidal rule),
+    /// summed in node order.
     fn step_work<M: Material<D>>(
         &self,
         sim: &Simulation<D, M>,
@@ -886,55 +905,42 @@ impl<const D: usize> QuasiStatic<D> {
         load0: &[Vector<D>],
     ) -> f64 {
         let load1 = self.applied_forces(sim);
-        (0..u0.len())
-            .map(|i| 0.5 * (load0[i] + load1[i]).dot(&(sim.state.u[i] - u0[i])))
-            .sum()
+        let terms =
+            (0..load1.len()).map(|i| 0.5 * (load0[i] + load1[i]).dot(&(sim.state.u[i] - u0[i])));
+        ordered_sum(sim.share.as_deref(), terms)
     }
 }
 
+/// The chunk of nodes whose sums (residual, damping) are taken first, in parallel; the
+/// chunks' sums are then added in order.
+const RESIDUAL_CHUNK: usize = 4096;
+
 /// The relative residual of `sim` (see the module docs) against its loading or `largest_load`,
-/// whichever is larger; the node with the largest out-of-balance force; the loading's squared
-/// norm.
+/// whichever is larger; the loading's squared norm. Sums over the owned nodes in fixed chunks
+/// of the global node order, continued across ranks.
 fn relative_residual<const D: usize, M: Material<D>>(
     sim: &Simulation<D, M>,
     largest_load: f64,
-) -> (f64, usize, f64) {
+) -> (f64, f64) {
     let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
-    let chunk = 4096;
-    // Fixed chunks summed in order: the same result for any thread count.
-    let n = s.u.len();
-    let parts: Vec<(f64, f64, f64, usize)> = (0..n.div_ceil(chunk))
-        .into_par_iter()
-        .map(|c| {
-            let (mut free, mut held, mut worst, mut worst_node) = (0.0, 0.0, -1.0, 0);
-            for i in c * chunk..((c + 1) * chunk).min(n) {
-                let mut own = 0.0;
-                for (k, &held_k) in mask[i].iter().take(D).enumerate() {
-                    let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
-                    if held_k {
-                        held += f * f;
-                    } else {
-                        own += f * f;
-                        let b = vol[i] * s.body_force[i][k];
-                        held += b * b;
-                    }
-                }
-                free += own;
-                if own > worst {
-                    (worst, worst_node) = (own, i);
+    let [free, held] = chunked_sums(
+        sim.share.as_deref(),
+        sim.owned(),
+        RESIDUAL_CHUNK,
+        [0.0, 0.0],
+        |i, [free, held]| {
+            *free += own_residual(sim, i);
+            for (k, &held_k) in mask[i].iter().take(D).enumerate() {
+                let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
+                if held_k {
+                    *held += f * f;
+                } else {
+                    let b = vol[i] * s.body_force[i][k];
+                    *held += b * b;
                 }
             }
-            (free, held, worst, worst_node)
-        })
-        .collect();
-    let (mut free, mut held, mut worst, mut node) = (0.0, 0.0, -1.0, 0);
-    for (f, h, w, i) in parts {
-        free += f;
-        held += h;
-        if w > worst {
-            (worst, node) = (w, i);
-        }
-    }
+        },
+    );
     // Against the largest loading of any equilibrium so far: once a crack has cut the
     // body and the reactions vanish, equilibrium is still judged at the scale of the loads
     // it carried.
@@ -946,5 +952,43 @@ fn relative_residual<const D: usize, M: Material<D>>(
     } else {
         f64::INFINITY
     };
-    (relative, node, held)
+    (relative, held)
+}
+
+/// |V (f + b)|² of owned node i over its free components.
+fn own_residual<const D: usize, M: Material<D>>(sim: &Simulation<D, M>, i: usize) -> f64 {
+    let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
+    let mut own = 0.0;
+    for k in (0..D).filter(|&k| !mask[i][k]) {
+        let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
+        own += f * f;
+    }
+    own
+}
+
+/// The node with the largest out-of-balance force (the first in the node order of those
+/// with it), as its global index and its position: on every rank of a distributed run (each
+/// calls it), from the rank that owns it.
+fn worst_node<const D: usize, M: Material<D>>(sim: &Simulation<D, M>) -> (usize, String) {
+    let (mut worst, mut node) = (-1.0, 0);
+    for i in 0..sim.owned() {
+        let own = own_residual(sim, i);
+        if own > worst {
+            (worst, node) = (own, i);
+        }
+    }
+    let position = |i: usize| format!("{:?}", sim.body.positions[i].iter().collect::<Vec<_>>());
+    let Some(s) = sim.share.as_deref() else {
+        return (node, position(node));
+    };
+    // The largest over the ranks, then the first rank that has it (never NaN: `worst` only
+    // takes values above −1).
+    let top = s.ranks.max_f64(worst);
+    let mine = (worst == top).then_some(s.ranks.rank());
+    let first = s.ranks.min_f64(mine.map_or(f64::INFINITY, |r| r as f64));
+    let message =
+        (mine == Some(first as usize)).then(|| format!("{}\n{}", s.first + node, position(node)));
+    let message = s.ranks.first_message(message).unwrap_or_default();
+    let (node, position) = message.split_once('\n').unwrap_or(("0", ""));
+    (node.parse().unwrap_or(0), position.to_string())
 }

@@ -12,6 +12,7 @@
 use crate::bonds::partial_volume::NodeWeight;
 use crate::math::Vector;
 use crate::state::State;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// The other ranks of a distributed run, seen from one.
@@ -21,6 +22,13 @@ pub trait Ranks: Send + Sync {
     /// Continues a left fold across the ranks in rank order: rank 0 calls `local(None)`, rank
     /// r `local(Some(a))` with rank r − 1's result a; every rank returns the last rank's.
     fn chain(&self, local: &mut dyn FnMut(Option<f64>) -> f64) -> f64;
+    /// `chain` of `words` numbers: rank 0 calls `local(None)`, rank r `local(Some(a))` with
+    /// rank r − 1's `words` results a; every rank returns the last rank's.
+    fn chain_words(
+        &self,
+        words: usize,
+        local: &mut dyn FnMut(Option<&[f64]>) -> Vec<f64>,
+    ) -> Vec<f64>;
     /// Σ over ranks (exact: integers).
     fn sum_u64(&self, x: u64) -> u64;
     /// The smallest over ranks (exact in any order).
@@ -191,6 +199,212 @@ pub fn ordered_fold(share: Option<&Share>, start: f64, terms: impl Iterator<Item
                 let terms = terms.take().expect("called once");
                 terms.fold(before.unwrap_or(start), |acc, t| acc + t)
             })
+        }
+    }
+}
+
+/// `W` left folds over the owned nodes at once, each from `start` on rank 0 and continued
+/// from rank to rank (a loop `for i { add(i, &mut acc) }` over every node of the body, `add`
+/// adding node i's terms to the accumulators in place; i is a local index).
+pub fn ordered_folds<const W: usize>(
+    share: Option<&Share>,
+    nodes: usize,
+    start: [f64; W],
+    add: impl Fn(usize, &mut [f64; W]),
+) -> [f64; W] {
+    let fold = |mut acc: [f64; W]| {
+        for i in 0..nodes {
+            add(i, &mut acc);
+        }
+        acc
+    };
+    match share {
+        None => fold(start),
+        Some(s) => {
+            let all = s.ranks.chain_words(W, &mut |before| {
+                let acc = before.map_or(start, |b| std::array::from_fn(|k| b[k]));
+                fold(acc).to_vec()
+            });
+            std::array::from_fn(|k| all[k])
+        }
+    }
+}
+
+/// `W` sums over the nodes as one process takes them in fixed chunks of `chunk` nodes of
+/// the global order (the same for any thread count): each chunk's accumulators start at
+/// `start` and take its nodes' terms in order (`add(i, &mut acc)`, i a local index), and the
+/// chunks' accumulators are added in chunk order to totals that start at `start`. `nodes`:
+/// the nodes summed (the owned ones of a share). A chunk that spans ranks is continued from
+/// rank to rank with the totals, so the additions are the one process's for any number of
+/// ranks; the chunks inside a rank are summed in parallel.
+pub fn chunked_sums<const W: usize>(
+    share: Option<&Share>,
+    nodes: usize,
+    chunk: usize,
+    start: [f64; W],
+    add: impl Fn(usize, &mut [f64; W]) + Sync,
+) -> [f64; W] {
+    let (first, total) = share.map_or((0, nodes), |s| (s.first, s.global_nodes));
+    let end = first + nodes;
+    // This rank's pieces of the chunks, in global indices: (start, end, whether the piece
+    // ends its chunk).
+    let pieces: Vec<(usize, usize, bool)> = (first / chunk..end.div_ceil(chunk))
+        .map(|c| {
+            let (lo, hi) = (c * chunk, ((c + 1) * chunk).min(total));
+            (lo.max(first), hi.min(end), hi <= end)
+        })
+        .filter(|&(lo, hi, _)| lo < hi)
+        .collect();
+    let piece = |mut acc: [f64; W], lo: usize, hi: usize| {
+        for i in lo - first..hi - first {
+            add(i, &mut acc);
+        }
+        acc
+    };
+    // The first piece continues the previous rank's chunk when it starts inside one.
+    let continued = first % chunk != 0 && !pieces.is_empty();
+    let own: Vec<[f64; W]> = pieces[continued as usize..]
+        .par_iter()
+        .map(|&(lo, hi, _)| piece(start, lo, hi))
+        .collect();
+    // (totals of the finished chunks, the open chunk's accumulators).
+    let combine = |mut totals: [f64; W], mut open: [f64; W]| {
+        let mut finished = |acc: &[f64; W]| {
+            for (t, a) in totals.iter_mut().zip(acc) {
+                *t += a;
+            }
+        };
+        if continued {
+            let (lo, hi, ends) = pieces[0];
+            open = piece(open, lo, hi);
+            if ends {
+                finished(&open);
+            }
+        }
+        let tail = &pieces[continued as usize..];
+        for (acc, &(_, _, ends)) in own.iter().zip(tail) {
+            if ends {
+                finished(acc);
+            } else {
+                open = *acc;
+            }
+        }
+        (totals, open)
+    };
+    match share {
+        None => combine(start, start).0,
+        Some(s) => {
+            let all = s.ranks.chain_words(2 * W, &mut |before| {
+                let (totals, open) = match before {
+                    None => (start, start),
+                    Some(b) => (
+                        std::array::from_fn(|k| b[k]),
+                        std::array::from_fn(|k| b[W + k]),
+                    ),
+                };
+                let (totals, open) = combine(totals, open);
+                totals.iter().chain(&open).copied().collect()
+            });
+            std::array::from_fn(|k| all[k])
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What every rank returns when the ranks own the node ranges starting at `starts`
+    /// (ranks as threads of this process): the last rank's result, which all must share.
+    fn over_ranks<const W: usize>(
+        terms: &[[f64; W]],
+        starts: &[usize],
+        run: impl Fn(&Share, &[[f64; W]]) -> [f64; W] + Sync,
+    ) -> [f64; W] {
+        let n = terms.len();
+        let results = crate::distributed::thread_ranks::ThreadRanks::run(starts.len(), |ranks| {
+            let r = ranks.rank();
+            let first = starts[r];
+            let end = starts.get(r + 1).copied().unwrap_or(n);
+            let share = Share {
+                ranks,
+                first,
+                owned: end - first,
+                global_nodes: n,
+                halo: Halo::default(),
+            };
+            run(&share, &terms[first..end])
+        });
+        let last = results[results.len() - 1];
+        for r in &results {
+            assert_eq!(
+                r.map(f64::to_bits),
+                last.map(f64::to_bits),
+                "every rank the last's"
+            );
+        }
+        last
+    }
+
+    /// Terms of very different sizes and signs: any other order of the additions rounds
+    /// differently.
+    fn terms(n: usize) -> Vec<[f64; 2]> {
+        (0..n)
+            .map(|i| {
+                let h = (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                let x = ((h >> 11) as f64 / (1u64 << 53) as f64) - 0.3;
+                [x * 10f64.powi((i % 17) as i32 - 8), x.sin()]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn chunked_sums_continue_the_one_process_chunks_across_ranks() {
+        let chunk = 4096;
+        for n in [700, 4096, 9000, 13_000] {
+            let t = terms(n);
+            // The one process's sums: chunks in parallel, each a left fold, then in order.
+            let parts: Vec<[f64; 2]> = t
+                .par_chunks(chunk)
+                .map(|c| c.iter().fold([0.0, 0.0], |[a, b], [x, y]| [a + x, b + y]))
+                .collect();
+            let expected = parts
+                .iter()
+                .fold([0.0, 0.0], |[a, b], [x, y]| [a + x, b + y]);
+            let add = |t: &[[f64; 2]]| {
+                let t = t.to_vec();
+                move |i: usize, acc: &mut [f64; 2]| {
+                    acc[0] += t[i][0];
+                    acc[1] += t[i][1];
+                }
+            };
+            let one = chunked_sums(None, n, chunk, [0.0, 0.0], add(&t));
+            assert_eq!(one.map(f64::to_bits), expected.map(f64::to_bits), "{n}");
+            // Ranks starting at multiples of 256 (the force engine's node chunk), inside
+            // and at the chunks' bounds.
+            for starts in [
+                vec![0, 256],
+                vec![0, 512, 4096],
+                vec![0, 256, 512],
+                vec![0, 3840, 4352, 8448],
+            ] {
+                if starts.iter().any(|&s| s >= n) {
+                    continue;
+                }
+                let got = over_ranks(&t, &starts, |share, mine| {
+                    chunked_sums(Some(share), mine.len(), chunk, [0.0, 0.0], add(mine))
+                });
+                assert_eq!(
+                    got.map(f64::to_bits),
+                    expected.map(f64::to_bits),
+                    "{n} nodes, ranks from {starts:?}"
+                );
+                let got = over_ranks(&t, &starts, |share, mine| {
+                    ordered_folds(Some(share), mine.len(), [0.0, 0.0], add(mine))
+                });
+                let fold = ordered_folds(None, n, [0.0, 0.0], add(&t));
+                assert_eq!(got.map(f64::to_bits), fold.map(f64::to_bits));
+            }
         }
     }
 }

@@ -12,7 +12,9 @@ if [ $# -eq 0 ]; then
   set -- tests/mpi/pmb_notched.toml tests/mpi/pmb_plate_3d.toml tests/mpi/lps_energy_notched.toml \
     tests/mpi/pmb_bilinear_notched.toml tests/mpi/pmb_energy_adaptive.toml tests/mpi/pmb_nbnug_pores.toml \
     tests/mpi/lps_energy_free_mesh.toml tests/mpi/pmb_point_cloud.toml \
-    tests/mpi/pmb_impactors_crack_path.toml tests/mpi/pmb_contact_blocks.toml tests/mpi/pmb_crack_surface_3d.toml
+    tests/mpi/pmb_impactors_crack_path.toml tests/mpi/pmb_contact_blocks.toml tests/mpi/pmb_crack_surface_3d.toml \
+    tests/mpi/pmb_adr_notched.toml tests/mpi/lps_energy_adr_notched.toml tests/mpi/pmb_ncg_notched.toml \
+    tests/mpi/pmb_staged_preload_release.toml
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
