@@ -435,6 +435,7 @@ pub fn build_model_with<const D: usize>(
     // The stages' no-fail flags of every node, the ghosts' too (a part's node sets hold its
     // owned nodes only, but a bond reads the flags of both its ends).
     let stage_no_fail = super::stages::stage_no_fail(deck, &body);
+    let traction_volumes = super::stages::traction_volumes(deck, &body);
     let Part {
         body,
         bonds,
@@ -451,9 +452,14 @@ pub fn build_model_with<const D: usize>(
         None => (material_of, stage_no_fail),
     };
 
-    let loading =
-        super::stages::loading(&body, &deck.boundary_conditions, &deck.loads, &deck.solver);
-    let stages = super::stages::further_stages(deck, &body, stage_no_fail);
+    let loading = super::stages::loading(
+        &body,
+        &deck.boundary_conditions,
+        &deck.loads,
+        &deck.solver,
+        &traction_volumes,
+    );
+    let stages = super::stages::further_stages(deck, &body, stage_no_fail, &traction_volumes);
     let initial_velocities = deck
         .initial_velocities
         .iter()

@@ -8,6 +8,7 @@ use super::DeckIssue;
 use crate::body::Body;
 use crate::loading::{BoundaryCondition, Load, Loading};
 use crate::math::vector_from_slice;
+use std::collections::BTreeMap;
 
 /// One stage, built: what the run switches to when the stage starts.
 #[derive(Debug, Clone)]
@@ -22,12 +23,34 @@ pub struct StagePlan<const D: usize> {
     pub history_interval: u64,
 }
 
-/// The boundary conditions and loads of a stage, on the body's nodes (set names validated).
+/// The volume of each node set a traction of the deck (any stage) is spread over, summed over
+/// the whole body: a distributed run's part holds only some of a set's nodes, but every rank
+/// must spread the same force density.
+pub fn traction_volumes<const D: usize>(deck: &Deck, body: &Body<D>) -> BTreeMap<String, f64> {
+    let stage_loads = deck.stages.iter().filter_map(|s| s.loads.as_ref());
+    std::iter::once(&deck.loads)
+        .chain(stage_loads)
+        .flatten()
+        .filter_map(|load| match load {
+            LoadDeck::Traction { set, .. } => Some(set),
+            LoadDeck::BodyForce { .. } => None,
+        })
+        .map(|set| {
+            let nodes = body.node_set(set).expect("validated set name");
+            let volume: f64 = nodes.iter().map(|&i| body.volumes[i as usize]).sum();
+            (set.clone(), volume)
+        })
+        .collect()
+}
+
+/// The boundary conditions and loads of a stage, on the body's nodes (set names validated;
+/// `traction_volumes` from the whole body).
 pub fn loading<const D: usize>(
     body: &Body<D>,
     conditions: &[BoundaryDeck],
     loads: &[LoadDeck],
     solver: &SolverDeck,
+    traction_volumes: &BTreeMap<String, f64>,
 ) -> Loading<D> {
     let mut loading = Loading::<D>::default();
     for bc in conditions {
@@ -54,8 +77,7 @@ pub fn loading<const D: usize>(
         let mut density = vector_from_slice::<D>(value);
         if let Some(area) = area {
             // Traction T over area A is the force T·A spread over the set's volume.
-            let volume: f64 = nodes.iter().map(|&i| body.volumes[i as usize]).sum();
-            density *= area / volume;
+            density *= area / traction_volumes[set];
         }
         loading.loads.push(Load {
             set: set.clone(),
@@ -100,6 +122,7 @@ pub fn further_stages<const D: usize>(
     deck: &Deck,
     body: &Body<D>,
     no_fail: Vec<Vec<bool>>,
+    traction_volumes: &BTreeMap<String, f64>,
 ) -> Vec<StagePlan<D>> {
     let (mut conditions, mut loads) = (&deck.boundary_conditions, &deck.loads);
     deck.stages
@@ -112,7 +135,7 @@ pub fn further_stages<const D: usize>(
             StagePlan {
                 name: stage_name(deck, k + 1),
                 settings: settings_of(&stage.solver),
-                loading: loading(body, conditions, loads, &stage.solver),
+                loading: loading(body, conditions, loads, &stage.solver, traction_volumes),
                 no_fail,
                 history_interval: deck.stage_history_interval(k + 1),
             }
