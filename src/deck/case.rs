@@ -378,7 +378,7 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         );
     }
     let has_runs = deck.is_some();
-    if !has_runs && !(case.results.is_empty() && case.outputs.is_empty()) {
+    if !has_runs && (!case.results.is_empty() || !case.outputs.is_empty()) {
         issue(
             "deck".into(),
             "a case with results or outputs needs a deck to run".into(),

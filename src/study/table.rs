@@ -115,7 +115,7 @@ impl Table {
             .collect();
         let values = || rows.iter().map(|r| r[c]);
         Ok(match how {
-            Reduction::Final => values().last(),
+            Reduction::Final => values().next_back(),
             Reduction::Max => values().reduce(f64::max),
             Reduction::Min => values().reduce(f64::min),
             Reduction::MaxAbs => values().map(f64::abs).reduce(f64::max),

@@ -92,12 +92,15 @@ fn run_points(
     points
 }
 
+/// A named curve of (x, y) points.
+type Curve = (String, Vec<(f64, f64)>);
+
 fn column_curves(
     case: &LoadedCase,
     plot: &PlotSpec,
     measured: &Measured,
     runs_dir: &Path,
-) -> Result<Vec<(String, Vec<(f64, f64)>)>, String> {
+) -> Result<Vec<Curve>, String> {
     let mut curves = Vec::new();
     for (k, run) in measured.runs.iter().enumerate() {
         let dir = runs_dir.join(format!("run_{k:04}"));
