@@ -21,6 +21,7 @@ use crate::run::{check, run_with, RunControl, RunOptions};
 use crate::study::morris::{morris_statistics, Factor, FactorEffect, MorrisDesign, MorrisOptions};
 use crate::study::sweep::sweep_points;
 use crate::study::table::{Reduction, Table, Window};
+use crate::study::toml_number::number_at;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -338,43 +339,88 @@ fn read_outputs(ls: &LoadedStudy, dir: &Path) -> Result<Vec<Option<f64>>, StudyR
         .iter()
         .enumerate()
         .map(|(index, o)| {
-            let fail = |message: String| StudyRunError::Output {
+            read_output_in(dir, o).map_err(|message| StudyRunError::Output {
                 study: ls.file.display().to_string(),
                 index,
                 name: o.name.clone(),
                 message,
-            };
-            let path = dir.join(&o.file);
-            let text = std::fs::read_to_string(&path).map_err(|e| {
-                fail(format!(
-                    "the run wrote no {} ({e}); does the deck ask for it?",
-                    o.file
-                ))
-            })?;
-            let table =
-                Table::parse(&text).map_err(|e| fail(format!("{}: {e}", path.display())))?;
-            read_output(&table, o).map_err(|e| fail(format!("{}: {e}", o.file)))
+            })
         })
         .collect()
 }
 
-/// One output of a run: its column of `table` reduced as the spec says.
-pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String> {
-    let how = match o.reduce {
-        Reduce::Final => Reduction::Final,
-        Reduce::Max => Reduction::Max,
-        Reduce::Min => Reduction::Min,
-        Reduce::MaxAbs => Reduction::MaxAbs,
-        Reduce::FirstTimeAbove => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),
-        Reduce::Mean => Reduction::Mean,
-        Reduce::Count => Reduction::Count,
-        Reduce::Pearson => Reduction::Pearson(table.column(o.against.as_deref().unwrap_or(""))?),
+/// One output of the run in `dir`: a number of `resolved.toml` by key, or a column of a CSV
+/// file reduced (with `at_first_above`, at the time another column first passes its level).
+pub fn read_output_in(dir: &Path, o: &OutputSpec) -> Result<Option<f64>, String> {
+    let read = |file: &str| {
+        std::fs::read_to_string(dir.join(file))
+            .map_err(|e| format!("the run wrote no {file} ({e}); does the deck ask for it?"))
     };
-    let window = Window {
+    if o.is_toml() {
+        let key = o.key.as_deref().unwrap_or("");
+        return number_at(&read(&o.file)?, key)
+            .map(Some)
+            .map_err(|e| format!("{}, key `{key}`: {e}", o.file));
+    }
+    let table = |file: &str| {
+        Table::parse(&read(file)?).map_err(|e| format!("{}: {e}", dir.join(file).display()))
+    };
+    let main = table(&o.file)?;
+    if o.reduce == Some(Reduce::AtFirstAbove) {
+        let when_file = o.when_file.as_deref().unwrap_or(&o.file);
+        let when_column = o.when_column.as_deref().unwrap_or("");
+        let when = if when_file == o.file {
+            main.clone()
+        } else {
+            table(when_file)?
+        };
+        let level = o.threshold.unwrap_or(0.0);
+        let passed = when
+            .reduce(when_column, Reduction::FirstTimeAbove(level), window(o))
+            .map_err(|e| format!("{when_file}: {e}"))?;
+        let Some(time) = passed else {
+            return Ok(None);
+        };
+        return main
+            .value_at(o.column.as_deref().unwrap_or(""), time)
+            .map_err(|e| format!("{}: {e}", o.file));
+    }
+    read_output(&main, o).map_err(|e| format!("{}: {e}", o.file))
+}
+
+fn window(o: &OutputSpec) -> Window {
+    Window {
         from: o.from,
         until: o.until,
+    }
+}
+
+/// One output of a run from one CSV table: its column reduced as the spec says (not
+/// `at_first_above`, which reads a second table: `read_output_in`).
+pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String> {
+    let column = |name: Option<&str>| table.column(name.unwrap_or(""));
+    let how = match o.reduce {
+        None | Some(Reduce::AtFirstAbove) => {
+            return Err(format!(
+                "output `{}` is not one reduction of one column",
+                o.name
+            ))
+        }
+        Some(Reduce::Final) => Reduction::Final,
+        Some(Reduce::Max) => Reduction::Max,
+        Some(Reduce::Min) => Reduction::Min,
+        Some(Reduce::MaxAbs) => Reduction::MaxAbs,
+        Some(Reduce::FirstTimeAbove) => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),
+        Some(Reduce::TimeOfMax) => Reduction::TimeOfMax,
+        Some(Reduce::Mean) => Reduction::Mean,
+        Some(Reduce::Count) => Reduction::Count,
+        Some(Reduce::Pearson) => Reduction::Pearson(column(o.against.as_deref())?),
+        Some(Reduce::Angle) => Reduction::Angle {
+            against: column(o.against.as_deref())?,
+            first: o.first.unwrap_or(0.0),
+        },
     };
-    table.reduce(&o.column, how, window)
+    table.reduce(o.column.as_deref().unwrap_or(""), how, window(o))
 }
 
 fn runs_header(ls: &LoadedStudy) -> Vec<String> {
@@ -537,4 +583,90 @@ fn sweep_plots(ls: &LoadedStudy, runs: &[RunRecord], out: &Path) -> Result<(), S
         .map_err(|e| StudyRunError::Io(e.to_string()))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn output(toml: &str) -> OutputSpec {
+        toml::from_str(&format!("name = \"o\"\n{toml}")).unwrap()
+    }
+
+    /// A run's folder with a tip first beyond x = 4.8 mm at t = 3 µs, its speed, and a
+    /// resolved deck.
+    fn run_dir(tag: &str) -> std::path::PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("peridyn-outputs-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let write = |f: &str, text: &str| std::fs::write(dir.join(f), text).unwrap();
+        write(
+            "crack_tip.csv",
+            "time,step,crack_x,crack_y\n1e-6,10,,\n2e-6,20,0.004,0\n3e-6,30,0.006,0\n",
+        );
+        write(
+            "crack_speed.csv",
+            "branch,time,speed,speed_over_rayleigh\ncrack,2e-6,1000,0.5\ncrack,4e-6,2000,1.0\n",
+        );
+        write(
+            "resolved.toml",
+            "[derived]\nhorizon = 0.003\n[[derived.materials]]\nkey = \"material\"\npeak_stretch = 0.005\n",
+        );
+        dir
+    }
+
+    #[test]
+    fn outputs_read_across_files_and_from_the_resolved_deck() {
+        let dir = run_dir("read");
+        // x is first above 4.8 mm in the row at t = 3 µs (first_time_above reads the row's
+        // time); the speed there is interpolated between 1000 at 2 µs and 2000 at 4 µs: 1500.
+        let speed = output(
+            "file = \"crack_speed.csv\"\ncolumn = \"speed\"\nreduce = \"at_first_above\"\n\
+             when_file = \"crack_tip.csv\"\nwhen_column = \"crack_x\"\nthreshold = 0.0048",
+        );
+        assert_eq!(read_output_in(&dir, &speed), Ok(Some(1500.0)));
+        // A level never passed: no value.
+        let never = output(
+            "file = \"crack_speed.csv\"\ncolumn = \"speed\"\nreduce = \"at_first_above\"\n\
+             when_file = \"crack_tip.csv\"\nwhen_column = \"crack_x\"\nthreshold = 0.01",
+        );
+        assert_eq!(read_output_in(&dir, &never), Ok(None));
+        let s1 = output("file = \"resolved.toml\"\nkey = \"derived.materials[0].peak_stretch\"");
+        assert_eq!(read_output_in(&dir, &s1), Ok(Some(0.005)));
+        let h = output("file = \"resolved.toml\"\nkey = \"derived.horizon\"");
+        assert_eq!(read_output_in(&dir, &h), Ok(Some(0.003)));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_missing_file_key_or_column_is_named() {
+        let dir = run_dir("missing");
+        let e = read_output_in(
+            &dir,
+            &output("file = \"resolved.toml\"\nkey = \"derived.materials[0].sc\""),
+        )
+        .unwrap_err();
+        assert!(
+            e.contains(
+                "resolved.toml, key `derived.materials[0].sc`: no `sc` at `derived.materials[0]`"
+            ),
+            "{e}"
+        );
+        let e = read_output_in(
+            &dir,
+            &output(
+                "file = \"crack_speed.csv\"\ncolumn = \"speed\"\nreduce = \"at_first_above\"\n\
+                 when_file = \"crack_tip.csv\"\nwhen_column = \"tip_x\"\nthreshold = 0.0",
+            ),
+        )
+        .unwrap_err();
+        assert!(e.contains("crack_tip.csv: no column `tip_x`"), "{e}");
+        let e = read_output_in(
+            &dir,
+            &output("file = \"branching.csv\"\ncolumn = \"fork\"\nreduce = \"count\""),
+        )
+        .unwrap_err();
+        assert!(e.contains("the run wrote no branching.csv"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

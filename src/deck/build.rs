@@ -101,6 +101,10 @@ pub struct MaterialReport {
     pub micromodulus: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub critical_stretch: Option<f64>,
+    /// Fracture energy G0 (J/m²) the damage law is calibrated to (solid phase with porosity,
+    /// seed 001 Eq. 18); none when the deck gives no G0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fracture_energy: Option<f64>,
     /// Critical bond energy w_c (J/m⁶).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub critical_energy: Option<f64>,
@@ -765,6 +769,7 @@ fn calibrate(
         key: key.to_string(),
         model: spec.kind().to_string(),
         density: spec.density(),
+        fracture_energy: g0,
         ..Default::default()
     };
     let profile = match spec {

@@ -61,7 +61,9 @@ pub struct SeriesSpec {
 }
 
 /// An output computed from others of the same run: exactly one of `sum`, `difference`
-/// (first − second) or `ratio` (first / second).
+/// (first − second) or `ratio` (first / second). With `other_case`, the second output of a
+/// difference or ratio is read from that case's full measurement, at the run in the same
+/// position of its series (the two cases list the same δ or Δx in the same order).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DerivedSpec {
@@ -69,28 +71,43 @@ pub struct DerivedSpec {
     pub sum: Option<Vec<String>>,
     pub difference: Option<[String; 2]>,
     pub ratio: Option<[String; 2]>,
+    /// Another case file, relative to this one (`fig12_pmb.toml`).
+    pub other_case: Option<PathBuf>,
 }
 
 impl DerivedSpec {
-    /// The outputs it reads.
+    /// The outputs it reads from this case's run.
     pub fn inputs(&self) -> Vec<&String> {
         let mut v: Vec<&String> = Vec::new();
         v.extend(self.sum.iter().flatten());
-        v.extend(self.difference.iter().flatten());
-        v.extend(self.ratio.iter().flatten());
+        for pair in [&self.difference, &self.ratio].into_iter().flatten() {
+            v.push(&pair[0]);
+            if self.other_case.is_none() {
+                v.push(&pair[1]);
+            }
+        }
         v
     }
 
-    /// Its value from the values of its inputs (`None` when one has none).
-    pub fn value(&self, of: impl Fn(&str) -> Option<f64>) -> Option<f64> {
+    /// Its value from the values of its inputs (`None` when one has none); `of_other` gives
+    /// the second input of a comparison across cases.
+    pub fn value(
+        &self,
+        of: impl Fn(&str) -> Option<f64>,
+        of_other: impl Fn(&str) -> Option<f64>,
+    ) -> Option<f64> {
+        let second = |n: &str| match self.other_case {
+            Some(_) => of_other(n),
+            None => of(n),
+        };
         if let Some(names) = &self.sum {
             return names.iter().map(|n| of(n)).sum();
         }
         if let Some([a, b]) = &self.difference {
-            return Some(of(a)? - of(b)?);
+            return Some(of(a)? - second(b)?);
         }
         if let Some([a, b]) = &self.ratio {
-            return Some(of(a)? / of(b)?);
+            return Some(of(a)? / second(b)?);
         }
         None
     }
@@ -104,6 +121,11 @@ pub enum Trend {
     Decreasing,
     /// Every value within `tolerance` (relative) of their mean.
     Constant,
+    /// Every value below the row's `paper` level (0 without one: a difference across cases,
+    /// one grid's load below the other's).
+    Below,
+    /// Every value above the row's `paper` level (0 without one: a speed above 0.5 c_R).
+    Above,
 }
 
 /// A result of the paper and the output it is compared with.
@@ -356,7 +378,7 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         );
     }
     let has_runs = deck.is_some();
-    if !has_runs && !(case.results.is_empty() && case.outputs.is_empty()) {
+    if !has_runs && (!case.results.is_empty() || !case.outputs.is_empty()) {
         issue(
             "deck".into(),
             "a case with results or outputs needs a deck to run".into(),
@@ -374,6 +396,9 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 format!("outputs[{k}].name"),
                 format!("output `{}` is named twice", o.name),
             );
+        }
+        for (key, message) in super::study::output_issues(o) {
+            issue(format!("outputs[{k}].{key}"), message);
         }
     }
     for (k, d) in case.derived.iter().enumerate() {
@@ -398,6 +423,12 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 at("name"),
                 "expected one of `sum = [outputs…]`, `difference = [a, b]` or `ratio = [a, b]`"
                     .into(),
+            );
+        }
+        if d.other_case.is_some() && d.sum.is_some() {
+            issue(
+                at("other_case"),
+                "`other_case` goes with `difference` or `ratio`: their second output is read from the other case".into(),
             );
         }
         for input in d.inputs() {

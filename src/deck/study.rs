@@ -100,27 +100,44 @@ pub struct FactorSpec {
     pub values: Option<Vec<f64>>,
 }
 
-/// One scalar read from every run.
+/// One scalar read from every run: a column of a CSV file reduced to one number, or a number
+/// of a TOML file the run writes (`resolved.toml`: the deck as run and its derived constants).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
     /// The output's name in `runs.csv`, `morris.csv` and plot file names.
     pub name: String,
-    /// The run's CSV file it is read from (default `history.csv`).
+    /// The run's file it is read from (default `history.csv`): a CSV file, or `resolved.toml`.
     #[serde(default = "default_file")]
     pub file: String,
-    /// The column of that file.
-    pub column: String,
-    pub reduce: Reduce,
-    /// `first_time_above`: the level the column must pass.
+    /// The column of a CSV file.
+    pub column: Option<String>,
+    /// How the column becomes one number (CSV files).
+    pub reduce: Option<Reduce>,
+    /// The key path of a number in a TOML file, e.g. `derived.materials[0].peak_stretch`.
+    pub key: Option<String>,
+    /// `first_time_above`, `at_first_above`: the level the column must pass.
     pub threshold: Option<f64>,
     /// Only rows with `time` ≤ this (s) count (seed 004 evaluates its study up to a given
     /// grip displacement).
     pub until: Option<f64>,
     /// Only rows with `time` ≥ this (s) count (a crack speed once the crack runs).
     pub from: Option<f64>,
-    /// `pearson`: the second column of the same file.
+    /// `pearson`: the second column of the same file; `angle`: the abscissa column.
     pub against: Option<String>,
+    /// `at_first_above`: the column that must pass `threshold` (in `when_file`).
+    pub when_column: Option<String>,
+    /// `at_first_above`: the CSV file of `when_column` (default: `file`).
+    pub when_file: Option<String>,
+    /// `angle`: the length of the first part of the path, along `against` from its first row.
+    pub first: Option<f64>,
+}
+
+impl OutputSpec {
+    /// Whether it reads a number of a TOML file by key rather than a CSV column.
+    pub fn is_toml(&self) -> bool {
+        self.file.ends_with(".toml")
+    }
 }
 
 fn default_file() -> String {
@@ -140,6 +157,12 @@ pub enum Reduce {
     /// The `time` of the first row whose value exceeds `threshold` (e.g. crack initiation:
     /// `broken_bonds` above 0); a run that never passes it has no value.
     FirstTimeAbove,
+    /// The `time` of the first row where the column has its largest value (a crack tip's y
+    /// stops rising: the crack turns horizontal).
+    TimeOfMax,
+    /// The column's value at the time `when_column` first exceeds `threshold` (a crack's
+    /// speed when its tip reaches a pore), interpolated linearly in time.
+    AtFirstAbove,
     /// The mean of the values (a crack speed over a window of time).
     Mean,
     /// How many rows have a value (the forks of `branching.csv`).
@@ -147,6 +170,9 @@ pub enum Reduce {
     /// The Pearson correlation with the column `against` (a crack path against its
     /// reference in `crack_path_comparison.csv`; seed 003 Eq. 17).
     Pearson,
+    /// The angle (degrees) of the least-squares line of the column against the column
+    /// `against`, over the rows within `first` of the first row (a crack's initial direction).
+    Angle,
 }
 
 /// A parsed and validated study with its base deck.
@@ -381,56 +407,8 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
         if study.outputs[..k].iter().any(|p| p.name == o.name) {
             issue(at("name"), format!("output `{}` is named twice", o.name));
         }
-        if o.file.contains(['/', '\\']) || !o.file.ends_with(".csv") {
-            issue(
-                at("file"),
-                format!(
-                    "expected the name of a CSV file the run writes (history.csv, crack_tip.csv, …), got {:?}",
-                    o.file
-                ),
-            );
-        }
-        match (o.reduce, o.threshold) {
-            (Reduce::FirstTimeAbove, None) => {
-                issue(at("reduce"), "first_time_above needs a `threshold`".into())
-            }
-            (Reduce::FirstTimeAbove, Some(t)) if !t.is_finite() => issue(
-                at("threshold"),
-                format!("expected a finite number, got {t}"),
-            ),
-            (Reduce::FirstTimeAbove, _) => {}
-            (_, Some(_)) => issue(
-                at("threshold"),
-                "a threshold is used by reduce = \"first_time_above\" only".into(),
-            ),
-            _ => {}
-        }
-        match (o.reduce, &o.against) {
-            (Reduce::Pearson, None) => issue(
-                at("reduce"),
-                "pearson needs `against`: the second column of the file".into(),
-            ),
-            (Reduce::Pearson, Some(_)) => {}
-            (_, Some(_)) => issue(
-                at("against"),
-                "`against` is used by reduce = \"pearson\" only".into(),
-            ),
-            _ => {}
-        }
-        for (key, bound) in [("until", o.until), ("from", o.from)] {
-            if let Some(t) = bound {
-                if !(t.is_finite() && t >= 0.0) {
-                    issue(at(key), format!("expected a time ≥ 0 s, got {t}"));
-                }
-            }
-        }
-        if let (Some(from), Some(until)) = (o.from, o.until) {
-            if from > until {
-                issue(
-                    at("from"),
-                    format!("the window is empty: from = {from} s is after until = {until} s"),
-                );
-            }
+        for issue_at in output_issues(o) {
+            issue(at(issue_at.0), issue_at.1);
         }
     }
     match runs(study) {
@@ -442,6 +420,169 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
                 n.map_or("too many".into(), |n| n.to_string())
             ),
         ),
+    }
+    issues
+}
+
+/// What is wrong with one output's keys, each as (key, message): the file, then the keys its
+/// kind of output needs and those it does not use.
+pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
+    let mut issues = Vec::new();
+    let mut issue = |key: &'static str, message: String| issues.push((key, message));
+    let plain = |f: &str| !f.contains(['/', '\\']);
+    if o.is_toml() {
+        if !plain(&o.file) {
+            issue(
+                "file",
+                format!(
+                    "expected the name of a file in the run's folder (resolved.toml), got {:?}",
+                    o.file
+                ),
+            );
+        }
+        if o.key.is_none() {
+            issue(
+                "key",
+                format!("a number of {} is read by key path: add e.g. `key = \"derived.materials[0].peak_stretch\"`", o.file),
+            );
+        }
+        let csv_only = [
+            ("column", o.column.is_some()),
+            ("reduce", o.reduce.is_some()),
+            ("threshold", o.threshold.is_some()),
+            ("until", o.until.is_some()),
+            ("from", o.from.is_some()),
+            ("against", o.against.is_some()),
+            ("when_column", o.when_column.is_some()),
+            ("when_file", o.when_file.is_some()),
+            ("first", o.first.is_some()),
+        ];
+        for (key, given) in csv_only {
+            if given {
+                issue(
+                    key,
+                    format!(
+                        "`{key}` applies to a CSV file; {} is read by `key` alone",
+                        o.file
+                    ),
+                );
+            }
+        }
+        return issues;
+    }
+    if !(plain(&o.file) && o.file.ends_with(".csv")) {
+        issue(
+            "file",
+            format!(
+                "expected the name of a CSV file the run writes (history.csv, crack_tip.csv, …) or resolved.toml, got {:?}",
+                o.file
+            ),
+        );
+    }
+    if o.key.is_some() {
+        issue(
+            "key",
+            format!(
+                "`key` reads a TOML file (resolved.toml); {} is read by `column` and `reduce`",
+                o.file
+            ),
+        );
+    }
+    if o.column.is_none() {
+        issue(
+            "column",
+            format!("expected the column of {} to read", o.file),
+        );
+    }
+    let Some(reduce) = o.reduce else {
+        issue(
+            "reduce",
+            "expected how the column becomes one number: final, max, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson or angle".into(),
+        );
+        return issues;
+    };
+    let uses_threshold = matches!(reduce, Reduce::FirstTimeAbove | Reduce::AtFirstAbove);
+    match o.threshold {
+        None if uses_threshold => issue(
+            "reduce",
+            "first_time_above and at_first_above need a `threshold`".into(),
+        ),
+        Some(t) if uses_threshold && !t.is_finite() => {
+            issue("threshold", format!("expected a finite number, got {t}"))
+        }
+        Some(_) if !uses_threshold => issue(
+            "threshold",
+            "a threshold is used by reduce = \"first_time_above\" or \"at_first_above\" only"
+                .into(),
+        ),
+        _ => {}
+    }
+    let uses_against = matches!(reduce, Reduce::Pearson | Reduce::Angle);
+    match &o.against {
+        None if uses_against => issue(
+            "reduce",
+            "pearson and angle need `against`: the second column of the file".into(),
+        ),
+        Some(_) if !uses_against => issue(
+            "against",
+            "`against` is used by reduce = \"pearson\" or \"angle\" only".into(),
+        ),
+        _ => {}
+    }
+    let at_first = reduce == Reduce::AtFirstAbove;
+    if at_first && o.when_column.is_none() {
+        issue(
+            "reduce",
+            "at_first_above needs `when_column`: the column that passes `threshold`".into(),
+        );
+    }
+    for (key, given) in [
+        ("when_column", o.when_column.is_some()),
+        ("when_file", o.when_file.is_some()),
+    ] {
+        if given && !at_first {
+            issue(
+                key,
+                format!("`{key}` is used by reduce = \"at_first_above\" only"),
+            );
+        }
+    }
+    if let Some(f) = &o.when_file {
+        if !(plain(f) && f.ends_with(".csv")) {
+            issue(
+                "when_file",
+                format!("expected the name of a CSV file the run writes, got {f:?}"),
+            );
+        }
+    }
+    for (key, bound) in [("until", o.until), ("from", o.from)] {
+        if let Some(t) = bound {
+            if !(t.is_finite() && t >= 0.0) {
+                issue(key, format!("expected a time ≥ 0 s, got {t}"));
+            }
+        }
+    }
+    if let (Some(from), Some(until)) = (o.from, o.until) {
+        if from > until {
+            issue(
+                "from",
+                format!("the window is empty: from = {from} s is after until = {until} s"),
+            );
+        }
+    }
+    match o.first {
+        None if reduce == Reduce::Angle => issue(
+            "reduce",
+            "angle needs `first`: the length of the path's first part, in the units of `against`"
+                .into(),
+        ),
+        Some(_) if reduce != Reduce::Angle => {
+            issue("first", "`first` is used by reduce = \"angle\" only".into())
+        }
+        Some(l) if !(l.is_finite() && l > 0.0) => {
+            issue("first", format!("expected a length > 0, got {l}"))
+        }
+        _ => {}
     }
     issues
 }

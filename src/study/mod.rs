@@ -8,7 +8,8 @@
 //!   of Campolongo et al. 2007, as used in seed 004 §3 (9 inputs, 5 trajectories out of 20,
 //!   50 runs);
 //! - `sweep`: every combination of given values (a full-factorial parameter study);
-//! - `table`: a run's CSV output as numbers, and the reductions that make one output of it.
+//! - `table`: a run's CSV output as numbers, and the reductions that make one output of it;
+//! - `toml_number`: a number of a TOML file a run writes (`resolved.toml`), by key path.
 //!
 //! `study_run.rs` (front layer) edits the deck at each design point, runs it and reads the
 //! outputs back.
@@ -16,3 +17,4 @@
 pub mod morris;
 pub mod sweep;
 pub mod table;
+pub mod toml_number;

@@ -1,7 +1,8 @@
 //! The numbers a study reads from one run: a CSV table (header, rows of numbers) and the
 //! reductions that turn one of its columns into a scalar (final, max, min, max |·|, the time a
-//! level is first passed, the mean, the count of values, the Pearson correlation with a second
-//! column), optionally over a window of time.
+//! level is first passed, the time of the largest value, the mean, the count of values, the
+//! Pearson correlation with a second column, the angle of a path's first part), optionally over a window of time, and a column's
+//! value at a given time.
 
 use crate::analysis::crack_path::pearson;
 
@@ -21,6 +22,9 @@ pub enum Reduction {
     MaxAbs,
     /// The `time` of the first row whose value exceeds the level.
     FirstTimeAbove(f64),
+    /// The `time` of the first row where the column has its largest value (when a crack tip's
+    /// y stops rising: the crack turns horizontal).
+    TimeOfMax,
     /// The arithmetic mean of the column's values (a crack speed over a window).
     Mean,
     /// How many rows have a value (forks in `branching.csv`, samples of a tip).
@@ -28,6 +32,14 @@ pub enum Reduction {
     /// The Pearson correlation of the column with a second one, over the rows where both have
     /// values (seed 003 Eq. 17: a crack path against its reference).
     Pearson(usize),
+    /// The angle in degrees, atan of the least-squares slope, of the column against the
+    /// column `against` over the rows whose `against` lies within `first` of the first row's
+    /// (the direction of a crack path's first part); a point repeated in successive rows (a
+    /// tip sampled while it stands still) counts once.
+    Angle {
+        against: usize,
+        first: f64,
+    },
 }
 
 /// The rows of a table that count: those with `from` ≤ time ≤ `until` (each bound optional).
@@ -90,7 +102,9 @@ impl Table {
     ) -> Result<Option<f64>, String> {
         let c = self.column(column)?;
         let time = match (window.is_open(), how) {
-            (true, Reduction::FirstTimeAbove(_)) | (false, _) => Some(self.column("time")?),
+            (true, Reduction::FirstTimeAbove(_) | Reduction::TimeOfMax) | (false, _) => {
+                Some(self.column("time")?)
+            }
             _ => None,
         };
         let rows: Vec<&Vec<f64>> = self
@@ -101,7 +115,7 @@ impl Table {
             .collect();
         let values = || rows.iter().map(|r| r[c]);
         Ok(match how {
-            Reduction::Final => values().last(),
+            Reduction::Final => values().next_back(),
             Reduction::Max => values().reduce(f64::max),
             Reduction::Min => values().reduce(f64::min),
             Reduction::MaxAbs => values().map(f64::abs).reduce(f64::max),
@@ -109,6 +123,12 @@ impl Table {
                 .iter()
                 .find(|r| r[c] > level)
                 .and_then(|r| time.and_then(|t| r.get(t).copied())),
+            Reduction::TimeOfMax => {
+                let largest = values().reduce(f64::max);
+                rows.iter()
+                    .find(|r| Some(r[c]) == largest)
+                    .and_then(|r| time.and_then(|t| r.get(t).copied()))
+            }
             Reduction::Mean => {
                 (!rows.is_empty()).then(|| values().sum::<f64>() / rows.len() as f64)
             }
@@ -121,8 +141,62 @@ impl Table {
                 let (x, y): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
                 pearson(&x, &y)
             }
+            Reduction::Angle { against, first } => {
+                let mut points: Vec<(f64, f64)> = rows
+                    .iter()
+                    .filter_map(|r| r.get(against).filter(|v| !v.is_nan()).map(|&a| (a, r[c])))
+                    .collect();
+                // A tip sampled while it stands still repeats its point: the path is its
+                // distinct points, not the time spent at each.
+                points.dedup();
+                let start = points.first().map(|p| p.0);
+                let part: Vec<(f64, f64)> = points
+                    .into_iter()
+                    .filter(|p| start.is_some_and(|s| (p.0 - s).abs() <= first))
+                    .collect();
+                least_squares_slope(&part).map(|m| m.atan().to_degrees())
+            }
         })
     }
+
+    /// The value of `column` at `time`, interpolated linearly between the first two successive
+    /// rows (in the file's order) whose times bracket it; `Ok(None)` when no two do (the time
+    /// is outside the rows). Rows without a value of the column are skipped. In a long-format
+    /// file (`crack_speed.csv`: one branch after the other) the first branch's rows come first.
+    pub fn value_at(&self, column: &str, time: f64) -> Result<Option<f64>, String> {
+        let c = self.column(column)?;
+        let t = self.column("time")?;
+        let points: Vec<(f64, f64)> = self
+            .rows
+            .iter()
+            .filter_map(|r| match (r.get(t), r.get(c)) {
+                (Some(&tr), Some(&v)) if !(tr.is_nan() || v.is_nan()) => Some((tr, v)),
+                _ => None,
+            })
+            .collect();
+        Ok(points.windows(2).find_map(|w| {
+            let ((t0, v0), (t1, v1)) = (w[0], w[1]);
+            if !(t0 <= time && time <= t1) {
+                return None;
+            }
+            Some(if t1 > t0 {
+                v0 + (v1 - v0) * (time - t0) / (t1 - t0)
+            } else {
+                v0
+            })
+        }))
+    }
+}
+
+/// The slope of the least-squares line y = a + m x through `points` (x, y); `None` with fewer
+/// than two distinct x.
+fn least_squares_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let n = points.len() as f64;
+    let mean_x = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_y = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
 }
 
 #[cfg(test)]
@@ -165,6 +239,23 @@ mod tests {
     }
 
     #[test]
+    fn the_time_a_column_reaches_its_largest_value() {
+        // A tip's y rises to 3 at t = 2, stays there, dips and comes back to 3: the first time
+        // it is largest is 2.
+        let t = Table::parse("time,y\n0,,\n1,1\n2,3\n3,3\n4,2\n5,3\n").unwrap();
+        let r = |w| t.reduce("y", Reduction::TimeOfMax, w).unwrap();
+        assert_eq!(r(Window::default()), Some(2.0));
+        // Over a window that starts after it: the largest value there is first met at 3.
+        let from = |f| Window {
+            from: Some(f),
+            until: None,
+        };
+        assert_eq!(r(from(2.5)), Some(3.0));
+        assert_eq!(r(from(3.5)), Some(5.0));
+        assert_eq!(r(from(9.0)), None);
+    }
+
+    #[test]
     fn mean_count_and_correlation_over_a_window() {
         // A tip seen from the second row on (empty cells before), a path and its reference.
         let t =
@@ -191,6 +282,84 @@ mod tests {
             r("path", Reduction::Pearson(reference), w(None, Some(0.0))),
             None
         );
+    }
+
+    #[test]
+    fn a_value_at_a_time_is_interpolated_between_the_rows_around_it() {
+        // A long-format speed table: branch "crack" (labels read as NaN), then branch "b",
+        // whose times start again.
+        let t = Table::parse(
+            "branch,time,speed\ncrack,1,100\ncrack,2,300\ncrack,4,200\nb,1,900\nb,3,700\n",
+        )
+        .unwrap();
+        assert_eq!(t.value_at("speed", 1.5).unwrap(), Some(200.0));
+        assert_eq!(t.value_at("speed", 3.0).unwrap(), Some(250.0));
+        // A row's own time gives its value; the first branch's rows are found first.
+        assert_eq!(t.value_at("speed", 2.0).unwrap(), Some(300.0));
+        assert_eq!(t.value_at("speed", 1.0).unwrap(), Some(100.0));
+        // Outside the rows: no value.
+        assert_eq!(t.value_at("speed", 0.5).unwrap(), None);
+        assert_eq!(t.value_at("speed", 4.5).unwrap(), None);
+        assert!(t.value_at("v", 1.0).unwrap_err().contains("no column `v`"));
+    }
+
+    #[test]
+    fn the_angle_of_a_paths_first_part() {
+        // A path rising at 30° for x in [0, 2], then flat: the first part's angle is 30°, the
+        // whole path's smaller.
+        let r3 = 3f64.sqrt();
+        let csv = format!(
+            "x,y\n0,0\n1,{}\n2,{}\n3,{}\n4,{}\n",
+            1.0 / r3,
+            2.0 / r3,
+            2.0 / r3,
+            2.0 / r3
+        );
+        let t = Table::parse(&csv).unwrap();
+        let x = t.column("x").unwrap();
+        let angle = |first| {
+            t.reduce(
+                "y",
+                Reduction::Angle { against: x, first },
+                Window::default(),
+            )
+            .unwrap()
+        };
+        assert!((angle(2.0).unwrap() - 30.0).abs() < 1e-12);
+        assert!((angle(2.5).unwrap() - 30.0).abs() < 1e-12);
+        let all = angle(10.0).unwrap();
+        assert!(all > 5.0 && all < 25.0, "{all}");
+        // One point: no line.
+        assert_eq!(angle(0.5), None);
+        // A tip that stands still at its first point for three samples, then moves to (1, 0)
+        // and (2, 2): the three distinct points give a slope of 1 (45°); weighting the
+        // repeated point would give 0.875 (41.2°).
+        let t = Table::parse("time,x,y\n0,0,0\n1,0,0\n2,0,0\n3,1,0\n4,2,2\n").unwrap();
+        let x = t.column("x").unwrap();
+        let a = t
+            .reduce(
+                "y",
+                Reduction::Angle {
+                    against: x,
+                    first: 3.0,
+                },
+                Window::default(),
+            )
+            .unwrap();
+        assert!((a.unwrap() - 45.0).abs() < 1e-12, "{a:?}");
+        // A path falling to the right has a negative angle.
+        let down = Table::parse("x,y\n0,0\n1,-1\n").unwrap();
+        let a = down
+            .reduce(
+                "y",
+                Reduction::Angle {
+                    against: 0,
+                    first: 1.0,
+                },
+                Window::default(),
+            )
+            .unwrap();
+        assert!((a.unwrap() + 45.0).abs() < 1e-12);
     }
 
     #[test]

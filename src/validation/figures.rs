@@ -2,6 +2,7 @@
 //! CSV file against another (a curve per run), with the paper's points drawn on the same axes.
 
 use super::measured::Measured;
+use super::others::Others;
 use super::verdict::number;
 use crate::deck::case::{AxisSpec, LoadedCase, PlotSpec};
 use crate::plot::curve::write_curves_and_points_png;
@@ -14,6 +15,7 @@ use std::path::{Path, PathBuf};
 pub fn draw(
     case: &LoadedCase,
     measured: &Measured,
+    others: &Others,
     runs_dir: &Path,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, String> {
@@ -26,7 +28,10 @@ pub fn draw(
                 format!("{}: plots[{k}] (`{}`): {e}", case.file.display(), plot.name)
             })?
         } else {
-            vec![("peridyn".to_string(), run_points(case, plot, measured))]
+            vec![(
+                "peridyn".to_string(),
+                run_points(case, plot, measured, others),
+            )]
         };
         let paper: Vec<(f64, f64)> = plot.paper.iter().map(|p| (p[0], p[1])).collect();
         let curves_ref: Vec<(&str, &[(f64, f64)])> = curves
@@ -66,12 +71,17 @@ fn axis_value(axis: &AxisSpec, series: Option<f64>, outputs: &BTreeMap<String, f
     v.map_or(f64::NAN, |v| v * axis.scale)
 }
 
-fn run_points(case: &LoadedCase, plot: &PlotSpec, measured: &Measured) -> Vec<(f64, f64)> {
+fn run_points(
+    case: &LoadedCase,
+    plot: &PlotSpec,
+    measured: &Measured,
+    others: &Others,
+) -> Vec<(f64, f64)> {
     let mut points: Vec<(f64, f64)> = measured
         .runs
         .iter()
         .map(|r| {
-            let values = r.values(case);
+            let values = r.values(case, others);
             (
                 axis_value(&plot.x, r.series, &values),
                 axis_value(&plot.y, r.series, &values),
@@ -82,12 +92,15 @@ fn run_points(case: &LoadedCase, plot: &PlotSpec, measured: &Measured) -> Vec<(f
     points
 }
 
+/// A named curve of (x, y) points.
+type Curve = (String, Vec<(f64, f64)>);
+
 fn column_curves(
     case: &LoadedCase,
     plot: &PlotSpec,
     measured: &Measured,
     runs_dir: &Path,
-) -> Result<Vec<(String, Vec<(f64, f64)>)>, String> {
+) -> Result<Vec<Curve>, String> {
     let mut curves = Vec::new();
     for (k, run) in measured.runs.iter().enumerate() {
         let dir = runs_dir.join(format!("run_{k:04}"));

@@ -60,19 +60,6 @@ impl Measured {
     }
 }
 
-impl MeasuredRun {
-    /// Its outputs and the case's derived outputs, computed in order from them.
-    pub fn values(&self, case: &crate::deck::case::LoadedCase) -> BTreeMap<String, f64> {
-        let mut values = self.outputs.clone();
-        for d in &case.case.derived {
-            if let Some(v) = d.value(|n| values.get(n).copied()) {
-                values.insert(d.name.clone(), v);
-            }
-        }
-        values
-    }
-}
-
 /// The wall time a finished run's `summary.txt` reports ("finished … in S s wall"), in minutes.
 pub fn run_wall_minutes(run_dir: &Path) -> Option<f64> {
     let text = std::fs::read_to_string(run_dir.join("summary.txt")).ok()?;

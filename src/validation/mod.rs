@@ -6,12 +6,14 @@
 
 pub mod figures;
 pub mod measured;
+pub mod others;
 pub mod report;
 pub mod verdict;
 
 use crate::deck::case::LoadedCase;
 use crate::study_run::{run_study, StudyOptions};
 use measured::{run_wall_minutes, Measured, MeasuredRun};
+use others::Others;
 use report::CaseEntry;
 use std::path::{Path, PathBuf};
 
@@ -202,6 +204,7 @@ pub fn keep_full(
     figures::draw(
         case,
         &kept,
+        &Others::load(case, layout)?,
         &case_dir(case, opts).join("runs"),
         &layout.docs().join("validation"),
     )?;
@@ -228,9 +231,11 @@ pub fn load_all(layout: &Layout) -> Result<Vec<CaseEntry>, String> {
             ids.push((id.clone(), path.clone()));
         }
         let measured = Measured::read(&layout.measured_file(&case))?;
+        let others = Others::load(&case, layout)?;
         entries.push(CaseEntry {
             case,
             measured,
+            others,
             path,
         });
     }
@@ -345,6 +350,7 @@ pub fn validate(
                     figures::draw(
                         &case,
                         measured,
+                        &Others::none(),
                         &case_dir(&case, opts).join("runs"),
                         &case_dir(&case, opts).join("figures"),
                     )
@@ -360,7 +366,12 @@ pub fn validate(
             } else {
                 Measured::read(&layout.measured_file(&case))?.unwrap_or(measured)
             };
-            let rows = verdict::judge_case(&case, Some(&kept), opts.reduced);
+            let others = if opts.reduced {
+                Others::none()
+            } else {
+                Others::load(&case, layout)?
+            };
+            let rows = verdict::judge_case(&case, Some(&kept), opts.reduced, &others);
             done.cases.push((layout.relative(file), rows));
         }
     }

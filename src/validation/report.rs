@@ -5,6 +5,7 @@
 
 use super::figures;
 use super::measured::Measured;
+use super::others::Others;
 use super::verdict::{judge_case, number, percent, Row, Status};
 use crate::deck::case::LoadedCase;
 use std::fmt::Write;
@@ -38,6 +39,8 @@ const PAPERS: [(&str, &str); 5] = [
 pub struct CaseEntry {
     pub case: LoadedCase,
     pub measured: Option<Measured>,
+    /// The cases its comparisons read, with their measurements.
+    pub others: Others,
     /// The case file as the report names it (relative to the repository).
     pub path: String,
 }
@@ -46,7 +49,12 @@ pub struct CaseEntry {
 pub fn markdown(entries: &[CaseEntry], figure_dir: &str, figures_present: &Path) -> String {
     let judged: Vec<(&CaseEntry, Vec<Row>)> = entries
         .iter()
-        .map(|e| (e, judge_case(&e.case, e.measured.as_ref(), false)))
+        .map(|e| {
+            (
+                e,
+                judge_case(&e.case, e.measured.as_ref(), false, &e.others),
+            )
+        })
         .collect();
     let mut md = String::new();
     md += "# Validation: the papers' results reproduced\n\n";
@@ -135,7 +143,12 @@ fn summary(judged: &[(&CaseEntry, Vec<Row>)], link: &str) -> String {
 pub fn readme_summary(entries: &[CaseEntry]) -> String {
     let judged: Vec<(&CaseEntry, Vec<Row>)> = entries
         .iter()
-        .map(|e| (e, judge_case(&e.case, e.measured.as_ref(), false)))
+        .map(|e| {
+            (
+                e,
+                judge_case(&e.case, e.measured.as_ref(), false, &e.others),
+            )
+        })
         .collect();
     summary(&judged, "docs/validation.md#seed-")
 }

@@ -3,6 +3,7 @@
 //! `tolerance`) and the reduced ones in CI (its `reduced_tolerance`).
 
 use super::measured::Measured;
+use super::others::Others;
 use crate::deck::case::{LoadedCase, ResultSpec, Trend};
 use std::fmt;
 
@@ -71,13 +72,19 @@ impl Row {
 }
 
 /// Every row of a case: its results judged against `measured` (none: never run at this size),
-/// then its `not_run` rows.
-pub fn judge_case(case: &LoadedCase, measured: Option<&Measured>, reduced: bool) -> Vec<Row> {
+/// then its `not_run` rows. `others`: the cases its comparisons read (`Others::none()` at the
+/// reduced size, where there is no committed measurement to compare with).
+pub fn judge_case(
+    case: &LoadedCase,
+    measured: Option<&Measured>,
+    reduced: bool,
+    others: &Others,
+) -> Vec<Row> {
     let mut rows: Vec<Row> = case
         .case
         .results
         .iter()
-        .map(|r| judge(case, r, measured, reduced))
+        .map(|r| judge(case, r, measured, reduced, others))
         .collect();
     rows.extend(case.case.not_run.iter().map(|r| Row {
         note: format!("Needs: {}", r.needs),
@@ -86,7 +93,13 @@ pub fn judge_case(case: &LoadedCase, measured: Option<&Measured>, reduced: bool)
     rows
 }
 
-fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced: bool) -> Row {
+fn judge(
+    case: &LoadedCase,
+    r: &ResultSpec,
+    measured: Option<&Measured>,
+    reduced: bool,
+    others: &Others,
+) -> Row {
     let (rel, abs) = if reduced {
         (r.reduced_tolerance, r.reduced_abs_tolerance)
     } else {
@@ -98,7 +111,7 @@ fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced
         return row;
     };
     let output = |run: &super::measured::MeasuredRun| {
-        run.values(case)
+        run.values(case, others)
             .get(&r.output)
             .copied()
             .map(|v| v * r.scale)
@@ -107,13 +120,23 @@ fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced
         let mut runs: Vec<_> = m.runs.iter().collect();
         runs.sort_by(|a, b| a.series.unwrap_or(0.0).total_cmp(&b.series.unwrap_or(0.0)));
         let values: Vec<Option<f64>> = runs.iter().map(|run| output(run)).collect();
+        let level = r.paper.unwrap_or(0.0);
         row.tolerance = match trend {
             Trend::Increasing => "increasing".into(),
             Trend::Decreasing => "decreasing".into(),
             Trend::Constant => format!("constant ±{}", percent(rel.unwrap_or(0.0))),
+            Trend::Below => format!("below {} at every run", number(level)),
+            Trend::Above => format!("above {} at every run", number(level)),
         };
-        if values.len() < 2 || values.iter().any(|v| v.is_none()) {
-            row.note = "The series has fewer than two measured runs.".into();
+        // A bound holds run by run; a direction or a constant needs two runs to compare.
+        let bound = matches!(trend, Trend::Below | Trend::Above);
+        let fewest = if bound { 1 } else { 2 };
+        if values.len() < fewest || values.iter().any(|v| v.is_none()) {
+            row.note = if bound {
+                "Not every run of the series has a value.".into()
+            } else {
+                "The series has fewer than two measured runs.".into()
+            };
             return row;
         }
         row.values = values.into_iter().flatten().collect();
@@ -125,6 +148,8 @@ fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced
                 let tol = rel.unwrap_or(0.0) * mean.abs();
                 row.values.iter().all(|v| (v - mean).abs() <= tol)
             }
+            Trend::Below => row.values.iter().all(|v| *v < level),
+            Trend::Above => row.values.iter().all(|v| *v > level),
         };
         // At the reduced size a trend is asserted where the row says why it holds there.
         row.status = verdict(holds, reduced && r.why_reduced.trim().is_empty());
@@ -161,6 +186,19 @@ fn judge(case: &LoadedCase, r: &ResultSpec, measured: Option<&Measured>, reduced
         _ if reduced => r.why_reduced.clone(),
         _ => r.why.clone(),
     };
+    // A comparison across cases says where its second value came from.
+    let other = case
+        .case
+        .derived
+        .iter()
+        .find(|d| d.name == r.output)
+        .and_then(|d| d.other_case.as_deref())
+        .and_then(|c| others.source(c));
+    if let Some(source) = other {
+        row.note = format!("{} (Second value from {source}.)", row.note)
+            .trim()
+            .to_string();
+    }
     row
 }
 

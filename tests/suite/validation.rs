@@ -5,6 +5,7 @@
 
 use peridyn::deck::case::LoadedCase;
 use peridyn::validation::measured::{Measured, MeasuredRun};
+use peridyn::validation::others::Others;
 use peridyn::validation::verdict::{judge_case, Status};
 use peridyn::validation::{load_all, report_texts, validate, Layout, ValidateOptions};
 use std::path::{Path, PathBuf};
@@ -184,7 +185,7 @@ fn verdicts_follow_the_tolerances_and_trends() {
         runs: vec![run(300.0, 520.0), run(400.0, 400.0)],
         ..Measured::default()
     };
-    let rows = judge_case(&case, Some(&measured), false);
+    let rows = judge_case(&case, Some(&measured), false, &Others::none());
     let status: Vec<(&str, Status)> = rows.iter().map(|r| (r.id.as_str(), r.status)).collect();
     assert_eq!(
         status,
@@ -201,9 +202,9 @@ fn verdicts_follow_the_tolerances_and_trends() {
     assert_eq!(rows[1].note, "it is slower");
     assert!((rows[0].relative_difference().unwrap() - 0.04).abs() < 1e-12);
     // Never run: every result NOT RUN; at the reduced size no row has a tolerance.
-    let never = judge_case(&case, None, false);
+    let never = judge_case(&case, None, false, &Others::none());
     assert!(never.iter().all(|r| r.status == Status::NotRun));
-    let reduced = judge_case(&case, Some(&measured), true);
+    let reduced = judge_case(&case, Some(&measured), true, &Others::none());
     assert_eq!(reduced[0].status, Status::Unchecked);
     assert_eq!(
         (reduced[1].status, reduced[1].measured),
@@ -258,6 +259,36 @@ fn bad_case_files_are_refused_at_their_key() {
             "ratio = [\"twice\", \"thrice\"]",
             "derived[1].name: no output `thrice`",
         ),
+        (
+            "sum = [\"speed\", \"speed\"]",
+            "sum = [\"speed\", \"speed\"]\nother_case = \"b.toml\"",
+            "derived[0].other_case: `other_case` goes with `difference` or `ratio`",
+        ),
+        (
+            "file = \"crack_speed.csv\"\ncolumn = \"speed\"\nreduce = \"mean\"",
+            "file = \"resolved.toml\"",
+            "outputs[0].key: a number of resolved.toml is read by key path",
+        ),
+        (
+            "file = \"crack_speed.csv\"\ncolumn = \"speed\"\nreduce = \"mean\"",
+            "file = \"resolved.toml\"\nkey = \"derived.horizon\"\nreduce = \"mean\"",
+            "outputs[0].reduce: `reduce` applies to a CSV file",
+        ),
+        (
+            "reduce = \"mean\"",
+            "reduce = \"at_first_above\"\nthreshold = 1.0",
+            "outputs[0].reduce: at_first_above needs `when_column`",
+        ),
+        (
+            "reduce = \"mean\"",
+            "reduce = \"angle\"\nagainst = \"time\"",
+            "outputs[0].reduce: angle needs `first`",
+        ),
+        (
+            "reduce = \"mean\"",
+            "reduce = \"mean\"\nwhen_column = \"crack_x\"",
+            "outputs[0].when_column: `when_column` is used by reduce = \"at_first_above\" only",
+        ),
     ] {
         assert!(good.contains(from), "{from}");
         let path = dir.join("bad.toml");
@@ -267,4 +298,122 @@ fn bad_case_files_are_refused_at_their_key() {
         assert!(e.contains("bad.toml:"), "{e}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Two cases on the quickstart deck in a validation layout of their own: `a.toml` compares
+/// its speed with `b.toml`'s, whose full measurement is committed, run by run in the order of
+/// the two series (whose values differ).
+fn two_cases(root: &Path, b_values: &str) -> (Layout, LoadedCase) {
+    let deck = repository()
+        .join("examples/quickstart.toml")
+        .display()
+        .to_string()
+        .replace('\\', "/");
+    let seed = root.join("validation/seed002");
+    std::fs::create_dir_all(&seed).unwrap();
+    let case = |series: &str, extra: &str| {
+        format!(
+            "version = 1\npaper = \"002\"\ntitle = \"t\"\nsection = \"§1\"\ndeck = \"{deck}\"\n\
+             [series]\nkey = \"material.fracture_energy\"\nvalues = {series}\n\
+             [[outputs]]\nname = \"speed\"\nfile = \"crack_speed.csv\"\ncolumn = \"speed\"\n\
+             reduce = \"mean\"\n{extra}"
+        )
+    };
+    let a = case(
+        "[300.0, 400.0]",
+        "[[derived]]\nname = \"minus_b\"\ndifference = [\"speed\", \"speed\"]\n\
+         other_case = \"b.toml\"\n\
+         [[results]]\nid = \"below\"\nquantity = \"q\"\nsource = \"s\"\noutput = \"minus_b\"\n\
+         trend = \"below\"\n\
+         [[results]]\nid = \"above\"\nquantity = \"q\"\nsource = \"s\"\npaper = 450.0\n\
+         output = \"speed\"\ntrend = \"above\"\n",
+    );
+    std::fs::write(seed.join("a.toml"), a).unwrap();
+    std::fs::write(seed.join("b.toml"), case(b_values, "")).unwrap();
+    let layout = Layout::new(root.join("validation"));
+    let run = |series: f64, speed: f64| MeasuredRun {
+        series: Some(series),
+        status: "ok".into(),
+        wall_minutes: 1.0,
+        outputs: [("speed".to_string(), speed)].into_iter().collect(),
+    };
+    let b = Measured {
+        runs: vec![run(30.0, 500.0), run(40.0, 600.0)],
+        ..Measured::default()
+    };
+    let case_b = LoadedCase::from_file(&seed.join("b.toml")).unwrap();
+    b.write(&layout.measured_file(&case_b)).unwrap();
+    let case_a = LoadedCase::from_file(&seed.join("a.toml")).unwrap();
+    (layout, case_a)
+}
+
+#[test]
+fn a_comparison_across_cases_pairs_the_runs_of_the_two_series() {
+    let root = scratch("across");
+    let (layout, a) = two_cases(&root, "[30.0, 40.0]");
+    let others = Others::load(&a, &layout).unwrap_or_else(|e| panic!("{e}"));
+    let run = |series: f64, speed: f64| MeasuredRun {
+        series: Some(series),
+        status: "ok".into(),
+        wall_minutes: 1.0,
+        outputs: [("speed".to_string(), speed)].into_iter().collect(),
+    };
+    // The first runs pair (300 with 30), the second ones (400 with 40).
+    let measured = Measured {
+        runs: vec![run(300.0, 480.0), run(400.0, 590.0)],
+        ..Measured::default()
+    };
+    let values: Vec<f64> = measured
+        .runs
+        .iter()
+        .map(|r| r.values(&a, &others)["minus_b"])
+        .collect();
+    assert_eq!(values, [-20.0, -10.0]);
+    let rows = judge_case(&a, Some(&measured), false, &others);
+    assert_eq!(rows[0].status, Status::Pass, "{:?}", rows[0]);
+    assert_eq!(rows[0].values, [-20.0, -10.0]);
+    assert!(
+        rows[0]
+            .note
+            .contains("Second value from validation/measured/seed002-b.toml"),
+        "{}",
+        rows[0].note
+    );
+    assert_eq!(rows[0].tolerance, "below 0 at every run");
+    // 480 and 590 above 450: a bound at the paper's level holds at every run.
+    assert_eq!(rows[1].status, Status::Pass);
+    assert_eq!(rows[1].tolerance, "above 450 at every run");
+    // One run above the other case's: the difference is not below 0 at every run.
+    let crossing = Measured {
+        runs: vec![run(300.0, 480.0), run(400.0, 610.0)],
+        ..Measured::default()
+    };
+    let rows = judge_case(&a, Some(&crossing), false, &others);
+    assert_eq!(rows[0].status, Status::Differs);
+    // One run at 440, below the bound of 450.
+    let low = Measured {
+        runs: vec![run(300.0, 440.0), run(400.0, 590.0)],
+        ..Measured::default()
+    };
+    assert_eq!(
+        judge_case(&a, Some(&low), false, &others)[1].status,
+        Status::Differs
+    );
+    // At the reduced size there is nothing to compare with: no value, nothing asserted.
+    let reduced = judge_case(&a, Some(&measured), true, &Others::none());
+    assert_eq!(reduced[0].status, Status::NotRun);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn a_comparison_across_cases_refuses_series_it_cannot_pair() {
+    let root = scratch("across-bad");
+    let (layout, a) = two_cases(&root, "[30.0]");
+    let e = Others::load(&a, &layout).unwrap_err();
+    assert!(e.contains("a.toml: derived[0].other_case"), "{e}");
+    assert!(
+        e.contains("this case has 2 full values and validation/seed002/b.toml has 1"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
 }

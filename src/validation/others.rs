@@ -1,0 +1,134 @@
+//! Comparisons across cases: a derived output with `other_case` reads its second input from
+//! another case's full measurement (`validation/measured/`), at the run in the same position
+//! of that case's series. Only full measurements are compared: a reduced run has no
+//! committed counterpart, so such an output has no value at the reduced size.
+
+use super::measured::{Measured, MeasuredRun};
+use super::Layout;
+use crate::deck::case::LoadedCase;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The cases a case's derived outputs compare with, each with its full measurement.
+#[derive(Debug, Clone, Default)]
+pub struct Others {
+    cases: Vec<Other>,
+}
+
+#[derive(Debug, Clone)]
+struct Other {
+    /// `other_case` as the derived output writes it.
+    named: PathBuf,
+    case: LoadedCase,
+    measured: Option<Measured>,
+    /// The measurement file, relative to the repository (the report names it).
+    source: String,
+}
+
+impl Others {
+    /// No other case: a case without comparisons, or a reduced run.
+    pub fn none() -> Others {
+        Others::default()
+    }
+
+    /// The cases `case`'s derived outputs name, read with their committed full measurement.
+    /// Refuses an unreadable case, a missing output and series of different lengths (the
+    /// runs are paired by position).
+    pub fn load(case: &LoadedCase, layout: &Layout) -> Result<Others, String> {
+        let mut cases: Vec<Other> = Vec::new();
+        let here = case.file.parent().unwrap_or(Path::new(""));
+        for (k, d) in case.case.derived.iter().enumerate() {
+            let Some(named) = &d.other_case else { continue };
+            let at = format!("{}: derived[{k}].other_case", layout.relative(&case.file));
+            if cases.iter().any(|o| &o.named == named) {
+                continue;
+            }
+            let other =
+                LoadedCase::from_file(&here.join(named)).map_err(|e| format!("{at}: {e}"))?;
+            let second = [&d.difference, &d.ratio]
+                .into_iter()
+                .flatten()
+                .map(|pair| &pair[1])
+                .next();
+            if let Some(name) = second {
+                let known = other.case.outputs.iter().any(|o| &o.name == name)
+                    || other.case.derived.iter().any(|o| &o.name == name);
+                if !known {
+                    return Err(format!(
+                        "{at}: {} has no output `{name}`",
+                        layout.relative(&other.file)
+                    ));
+                }
+            }
+            for reduced in [false, true] {
+                let (mine, theirs) = (case.series_values(reduced), other.series_values(reduced));
+                if mine.len() != theirs.len() {
+                    return Err(format!(
+                        "{at}: the runs are paired by position in the series, but this case has {} {} values and {} has {}",
+                        mine.len(),
+                        if reduced { "reduced" } else { "full" },
+                        layout.relative(&other.file),
+                        theirs.len()
+                    ));
+                }
+            }
+            let path = layout.measured_file(&other);
+            cases.push(Other {
+                named: named.clone(),
+                measured: Measured::read(&path)?,
+                source: layout.relative(&path),
+                case: other,
+            });
+        }
+        Ok(Others { cases })
+    }
+
+    /// The value of `output` in the run of `other_case` paired with the full run of `case`
+    /// at `series` (the same position in the two series).
+    pub fn value(
+        &self,
+        case: &LoadedCase,
+        other_case: &Path,
+        series: Option<f64>,
+        output: &str,
+    ) -> Option<f64> {
+        let other = self.cases.iter().find(|o| o.named == other_case)?;
+        let measured = other.measured.as_ref()?;
+        let position = match series {
+            Some(v) => case.series_values(false).iter().position(|s| *s == v)?,
+            None => 0,
+        };
+        let paired = other.case.series_values(false).get(position).copied();
+        let run = measured.runs.iter().find(|r| r.series == paired)?;
+        run.values(&other.case, &Others::none())
+            .get(output)
+            .copied()
+    }
+
+    /// The measurement file a comparison with `other_case` reads, relative to the repository.
+    pub fn source(&self, other_case: &Path) -> Option<&str> {
+        self.cases
+            .iter()
+            .find(|o| o.named == other_case)
+            .map(|o| o.source.as_str())
+    }
+}
+
+impl MeasuredRun {
+    /// Its outputs and the case's derived outputs, computed in order from them; a comparison
+    /// across cases reads its second input from `others`.
+    pub fn values(&self, case: &LoadedCase, others: &Others) -> BTreeMap<String, f64> {
+        let mut values = self.outputs.clone();
+        for d in &case.case.derived {
+            let of_other = |n: &str| {
+                d.other_case
+                    .as_deref()
+                    .and_then(|c| others.value(case, c, self.series, n))
+            };
+            if let Some(v) = d.value(|n| values.get(n).copied(), of_other) {
+                values.insert(d.name.clone(), v);
+            }
+        }
+        values
+    }
+}
