@@ -3,12 +3,22 @@ Ctrl-C between steps, loads driven from Python."""
 
 import _thread
 import csv
+import signal
 import threading
 
 import numpy as np
 import pytest
 
 import peridyn
+
+
+@pytest.fixture
+def ctrl_c():
+    """Python's own Ctrl-C handler for the test: a process started in the background by a
+    shell inherits SIGINT ignored, and Python then leaves it so (interrupt_main does nothing)."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
 
 
 def state(sim):
@@ -61,7 +71,7 @@ def test_run_until_a_time_stops_at_the_first_step_past_it(plate_text):
     assert sim.step_count == 11
 
 
-def test_ctrl_c_stops_between_steps_and_the_run_goes_on(plate_text):
+def test_ctrl_c_stops_between_steps_and_the_run_goes_on(plate_text, ctrl_c):
     long = plate_text.replace("end_time = 4e-6", "end_time = 4e-3")
     sim = peridyn.Simulation(long, threads=1)
     timer = threading.Timer(0.3, _thread.interrupt_main)
@@ -102,7 +112,9 @@ def test_a_displacement_prescribed_from_python_is_reached_at_the_next_step(plate
     assert "reaction_top_x" in sim.history()
 
 
-def test_ctrl_c_stops_peridyn_run_between_steps_with_its_files_finished(plate_text, tmp_path):
+def test_ctrl_c_stops_peridyn_run_between_steps_with_its_files_finished(
+    plate_text, tmp_path, ctrl_c
+):
     long = plate_text.replace("end_time = 4e-6", "end_time = 4e-3")
     out = tmp_path / "out"
     timer = threading.Timer(0.5, _thread.interrupt_main)
