@@ -160,14 +160,7 @@ impl Ranks for MpiRanks {
         if self.rank == 0 {
             let mut counts = vec![0 as Count; self.size];
             root.gather_into_root(&count, &mut counts[..]);
-            let displs: Vec<Count> = counts
-                .iter()
-                .scan(0, |acc, &c| {
-                    let d = *acc;
-                    *acc += c;
-                    Some(d)
-                })
-                .collect();
+            let displs = offsets(&counts);
             let total: Count = counts.iter().sum();
             let mut all = vec![0.0f64; total as usize];
             {
@@ -208,14 +201,7 @@ impl Ranks for MpiRanks {
         let count = local.len() as Count;
         let mut counts = vec![0 as Count; self.size];
         w.all_gather_into(&count, &mut counts[..]);
-        let displs: Vec<Count> = counts
-            .iter()
-            .scan(0, |acc, &c| {
-                let d = *acc;
-                *acc += c;
-                Some(d)
-            })
-            .collect();
+        let displs = offsets(&counts);
         let total: Count = counts.iter().sum();
         let mut all = vec![0.0f64; total as usize];
         {
@@ -224,4 +210,16 @@ impl Ranks for MpiRanks {
         }
         all
     }
+}
+
+/// Where each rank's part starts in the gathered buffer: the sums of the counts before it.
+fn offsets(counts: &[Count]) -> Vec<Count> {
+    counts
+        .iter()
+        .scan(0, |acc, &c| {
+            let d = *acc;
+            *acc += c;
+            Some(d)
+        })
+        .collect()
 }

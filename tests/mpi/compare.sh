@@ -18,31 +18,14 @@ if [ $# -eq 0 ]; then
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-# The lines of summary.txt that depend on the wall clock (or the results folder).
-timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' "$1"; }
+. tests/mpi/same_files.sh
 failed=0
 for deck in "$@"; do
   name=$(basename "$deck" .toml)
   "$bin" run "$deck" -o "$out/$name/1" --quiet --threads 1 >/dev/null
   for n in $ranks; do
     mpirun -np "$n" --oversubscribe "$bin" run "$deck" -o "$out/$name/$n" --quiet --threads 1 >/dev/null
-    files=$(cd "$out/$name/1" && find . -type f | sort)
-    if [ "$files" != "$(cd "$out/$name/$n" && find . -type f | sort)" ]; then
-      echo "$name on $n ranks: other files than in one process"
-      failed=1
-      continue
-    fi
-    same=0 differ=0
-    for f in $files; do
-      if [ "$f" = ./summary.txt ]; then
-        cmp -s <(timeless "$out/$name/1/$f") <(timeless "$out/$name/$n/$f") && ok=1 || ok=0
-      else
-        cmp -s "$out/$name/1/$f" "$out/$name/$n/$f" && ok=1 || ok=0
-      fi
-      if [ $ok = 1 ]; then same=$((same + 1)); else differ=$((differ + 1)); echo "  differs: $f"; fi
-    done
-    echo "$name on $n ranks: $same files identical, $differ differ"
-    [ $differ = 0 ] || failed=1
+    same_files "$out/$name/1" "$out/$name/$n" "$name on $n ranks" || failed=1
   done
 done
 exit $failed

@@ -16,8 +16,7 @@ if [ $# -eq 0 ]; then
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-# The lines of summary.txt that depend on the wall clock (or the results folder).
-timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' "$1"; }
+. tests/mpi/same_files.sh
 # `on N ARGS...`: peridyn run ARGS on N ranks (one process without mpirun for N = 1).
 on() {
   local n=$1
@@ -48,23 +47,7 @@ for deck in "$@"; do
       continue
     fi
     on "$b" "$deck" -o "$parts" --restart
-    files=$(cd "$whole" && find . -type f | sort)
-    if [ "$files" != "$(cd "$parts" && find . -type f | sort)" ]; then
-      echo "$name stopped on $a ranks after step $stop, continued on $b: other files than the whole run's"
-      failed=1
-      continue
-    fi
-    same=0 differ=0
-    for f in $files; do
-      if [ "$f" = ./summary.txt ]; then
-        cmp -s <(timeless "$whole/$f") <(timeless "$parts/$f") && ok=1 || ok=0
-      else
-        cmp -s "$whole/$f" "$parts/$f" && ok=1 || ok=0
-      fi
-      if [ $ok = 1 ]; then same=$((same + 1)); else differ=$((differ + 1)); echo "  differs: $f"; fi
-    done
-    echo "$name stopped on $a ranks after step $stop, continued on $b: $same files identical, $differ differ"
-    [ $differ = 0 ] || failed=1
+    same_files "$whole" "$parts" "$name stopped on $a ranks after step $stop, continued on $b" || failed=1
   done
 done
 exit $failed
