@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs each deck in one process and on 2 and 3 ranks (mpirun), and compares every output file
+# Runs each deck (by default every deck in tests/mpi) in one process and on 2 and 3 ranks (mpirun), and compares every output file
 # of the distributed runs with the single-process run's, byte for byte (summary.txt without its
 # wall-time lines). Needs a build with the `mpi` feature:
 #   cargo build --release --features mpi && tests/mpi/compare.sh [DECK...]
@@ -9,12 +9,7 @@ cd "$(dirname "$0")/../.."
 bin=${PERIDYN:-target/release/peridyn}
 ranks=${RANKS:-"2 3"}
 if [ $# -eq 0 ]; then
-  set -- tests/mpi/pmb_notched.toml tests/mpi/pmb_plate_3d.toml tests/mpi/lps_energy_notched.toml \
-    tests/mpi/pmb_bilinear_notched.toml tests/mpi/pmb_energy_adaptive.toml tests/mpi/pmb_nbnug_pores.toml \
-    tests/mpi/lps_energy_free_mesh.toml tests/mpi/pmb_point_cloud.toml \
-    tests/mpi/pmb_impactors_crack_path.toml tests/mpi/pmb_contact_blocks.toml tests/mpi/pmb_crack_surface_3d.toml \
-    tests/mpi/pmb_adr_notched.toml tests/mpi/lps_energy_adr_notched.toml tests/mpi/pmb_ncg_notched.toml \
-    tests/mpi/pmb_staged_preload_release.toml
+  set -- tests/mpi/*.toml
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
