@@ -45,7 +45,7 @@ pub fn build_bonds<const D: usize>(
             ..Default::default()
         };
     }
-    let (one_radius, chunks) = search_families(body, rule, precracks, 0..n);
+    let (one_radius, chunks) = search_families(body, rule, precracks, 0..n, Ends::Own);
     let chunks = if one_radius {
         chunks
     } else {
@@ -77,16 +77,41 @@ fn to_csr(chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)>) -> Bonds {
 
 /// The families of the nodes `nodes` only (neighbours in global indices), for a process
 /// that owns that range of a body distributed over several: each row is bit for bit the one
-/// `build_bonds` builds. `None` when the nodes' horizons differ (a pair only one end's
-/// horizon joins is found from the other end, which may be another process's).
+/// `build_bonds` builds. When horizons differ, a pair only one end's horizon joins is found
+/// there from the other end, which may be another process's node: here each node searches as
+/// far as the largest horizon reaches and keeps a neighbour when either end's own search would
+/// have kept it.
 pub fn build_bonds_of<const D: usize>(
     body: &Body<D>,
     rule: PartialVolume,
     precracks: &[Precrack],
     nodes: std::ops::Range<usize>,
-) -> Option<Bonds> {
-    let (one_radius, chunks) = search_families(body, rule, precracks, nodes);
-    one_radius.then(|| to_csr(chunks))
+) -> Bonds {
+    let ends = if search_radii(body, rule).1 {
+        Ends::Own
+    } else {
+        Ends::Both
+    };
+    to_csr(search_families(body, rule, precracks, nodes, ends).1)
+}
+
+/// Which ends of a pair a family search looks from.
+#[derive(Clone, Copy, PartialEq)]
+enum Ends {
+    /// Node i's own search only (radius δ_i + reach(r_max)).
+    Own,
+    /// Node i's search and, as far as the largest radius reaches, the search node j would
+    /// have made: what `with_reverse_pairs` adds, found from i's side.
+    Both,
+}
+
+/// Each node's search radius δ_i + reach(r_max), and whether it is the same for every node.
+fn search_radii<const D: usize>(body: &Body<D>, rule: PartialVolume) -> (Vec<f64>, bool) {
+    let r_max = rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max), D);
+    let radius: Vec<f64> = body.horizons.iter().map(|h| h + r_max).collect();
+    let max_radius = radius.iter().cloned().fold(0.0, f64::max);
+    let min_radius = radius.iter().cloned().fold(f64::INFINITY, f64::min);
+    (radius, min_radius == max_radius)
 }
 
 /// The searched families of `nodes`, per chunk of `CHUNK` nodes: (counts, neighbours,
@@ -98,18 +123,23 @@ fn search_families<const D: usize>(
     rule: PartialVolume,
     precracks: &[Precrack],
     nodes: std::ops::Range<usize>,
+    ends: Ends,
 ) -> (bool, Vec<(Vec<usize>, Vec<u32>, Vec<f64>)>) {
     // Node i looks as far as any j can be from it in i's own horizon, δ_i + reach(r_max). A
     // pair that only j's horizon joins (j coarse, i fine) is found from j, and added to i's
-    // family below; with one radius for every node each side finds it by itself.
-    let r_max = rule.reach(body.cell_sizes.iter().cloned().fold(0.0, f64::max), D);
-    let radius: Vec<f64> = body.horizons.iter().map(|h| h + r_max).collect();
+    // family by `with_reverse_pairs` (or, with `Ends::Both`, found here from i); with one
+    // radius for every node each side finds it by itself.
+    let (radius, one_radius) = search_radii(body, rule);
     let max_radius = radius.iter().cloned().fold(0.0, f64::max);
     let min_radius = radius.iter().cloned().fold(f64::INFINITY, f64::min);
-    let one_radius = min_radius == max_radius;
     // Cells no smaller than a quarter of the largest radius: a fine node scans few nodes,
     // a coarse one at most 9^D cells.
     let grid = CellGrid::new(body, min_radius.max(0.25 * max_radius));
+    let cuts = |a: usize, b: usize| {
+        precracks
+            .iter()
+            .any(|c| c.cuts(body.positions[a].as_slice(), body.positions[b].as_slice()))
+    };
 
     let chunks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = nodes
         .collect::<Vec<_>>()
@@ -122,7 +152,12 @@ fn search_families<const D: usize>(
             for &i in nodes {
                 family.clear();
                 let xi = &body.positions[i];
-                grid.for_each_candidate(xi.as_slice(), radius[i], |j| {
+                let reach = if ends == Ends::Both {
+                    max_radius
+                } else {
+                    radius[i]
+                };
+                grid.for_each_candidate(xi.as_slice(), reach, |j| {
                     if j == i {
                         return;
                     }
@@ -133,11 +168,17 @@ fn search_families<const D: usize>(
                         PartialVolume::Hhb | PartialVolume::Exact => len < reach_ij.max(reach_ji),
                         PartialVolume::None => len <= reach_ij.max(reach_ji),
                     };
-                    if inside
-                        && !precracks
-                            .iter()
-                            .any(|c| c.cuts(xi.as_slice(), body.positions[j].as_slice()))
-                    {
+                    // One process keeps j when i's search finds it uncut, or (`with_reverse_pairs`)
+                    // when j's search finds i uncut; each search sees the cells its radius reaches.
+                    let kept = match ends {
+                        Ends::Own => !cuts(i, j),
+                        Ends::Both => {
+                            let xj = body.positions[j].as_slice();
+                            (grid.sees(xi.as_slice(), radius[i], xj) && !cuts(i, j))
+                                || (grid.sees(xj, radius[j], xi.as_slice()) && !cuts(j, i))
+                        }
+                    };
+                    if inside && kept {
                         family.push((j as u32, len));
                     }
                 });
@@ -315,13 +356,30 @@ impl CellGrid {
         }
     }
 
-    /// Calls `f` for every node in the cells within `radius` of `p`'s cell.
-    fn for_each_candidate(&self, p: &[f64], radius: f64, mut f: impl FnMut(usize)) {
+    /// The cell of point `p`, per axis.
+    fn cell(&self, p: &[f64]) -> [isize; 3] {
         let mut q = [0isize; 3];
         for k in 0..self.dim {
             q[k] = (((p[k] - self.lo[k]) / self.size) as isize).min(self.dims[k] as isize - 1);
         }
-        let reach = (radius / self.size).ceil().max(1.0) as isize;
+        q
+    }
+
+    /// How many cells a search of `radius` scans on each side of its own.
+    fn reach(&self, radius: f64) -> isize {
+        (radius / self.size).ceil().max(1.0) as isize
+    }
+
+    /// Whether a search of `radius` from `p` (`for_each_candidate`) sees point `x`.
+    fn sees(&self, p: &[f64], radius: f64, x: &[f64]) -> bool {
+        let (a, b, reach) = (self.cell(p), self.cell(x), self.reach(radius));
+        (0..self.dim).all(|k| (a[k] - b[k]).abs() <= reach)
+    }
+
+    /// Calls `f` for every node in the cells within `radius` of `p`'s cell.
+    fn for_each_candidate(&self, p: &[f64], radius: f64, mut f: impl FnMut(usize)) {
+        let q = self.cell(p);
+        let reach = self.reach(radius);
         let (rz, ry) = if self.dim == 3 {
             (reach, reach)
         } else {
@@ -354,30 +412,69 @@ mod tests {
     use crate::discretize::multigrid::{multigrid, Refinement};
     use crate::geometry::Shape;
 
+    /// A 3-level multi-grid whose horizons follow the cells (δ_i = 3Δx_i).
+    fn refined_body() -> Body<2> {
+        let cloud = multigrid(
+            &Shape::cube(2, 0.02),
+            2,
+            1e-3,
+            1.0,
+            &[Refinement {
+                region: Shape::Rectangle {
+                    min: [0.006, 0.006],
+                    max: [0.012, 0.012],
+                },
+                level: 2,
+            }],
+        )
+        .unwrap();
+        let mut body = Body::<2>::from_cloud(cloud, 3e-3, 1.0);
+        for i in 0..body.len() {
+            body.horizons[i] = 3.0 * body.cell_sizes[i];
+        }
+        body
+    }
+
+    /// A process's families of its range of a body of varying horizons (and a pre-crack
+    /// through the refined zone) are, row by row and bit for bit, the whole body's.
+    #[test]
+    fn a_range_of_varying_horizons_has_the_whole_bodys_rows() {
+        let body = refined_body();
+        let crack = [Precrack::Segment {
+            start: [0.0, 0.0093],
+            end: [0.01, 0.0093],
+        }];
+        for rule in [PartialVolume::Hhb, PartialVolume::None] {
+            let whole = build_bonds(&body, rule, &crack);
+            let n = body.len();
+            for range in [0..n / 3, n / 3..n / 2 + 7, n / 2 + 7..n] {
+                let part = build_bonds_of(&body, rule, &crack, range.clone());
+                for (row, i) in range.clone().enumerate() {
+                    let got = part.offsets[row]..part.offsets[row + 1];
+                    let want = whole.family(i);
+                    assert_eq!(
+                        part.neighbors[got.clone()],
+                        whole.neighbors[want.clone()],
+                        "node {i}"
+                    );
+                    let bits = |l: &[f64]| l.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(&part.ref_lengths[got]),
+                        bits(&whole.ref_lengths[want]),
+                        "node {i}"
+                    );
+                }
+            }
+        }
+    }
+
     /// The families against the rule applied to every pair, on a 3-level multi-grid whose
     /// horizons follow the cells (δ_i = 3Δx_i): pairs that only the coarse node's horizon joins
     /// must be in both families.
     #[test]
     fn families_match_all_pairs_on_a_multigrid() {
         for rule in [PartialVolume::Hhb, PartialVolume::None] {
-            let cloud = multigrid(
-                &Shape::cube(2, 0.02),
-                2,
-                1e-3,
-                1.0,
-                &[Refinement {
-                    region: Shape::Rectangle {
-                        min: [0.006, 0.006],
-                        max: [0.012, 0.012],
-                    },
-                    level: 2,
-                }],
-            )
-            .unwrap();
-            let mut body = Body::<2>::from_cloud(cloud, 3e-3, 1.0);
-            for i in 0..body.len() {
-                body.horizons[i] = 3.0 * body.cell_sizes[i];
-            }
+            let body = refined_body();
             let bonds = build_bonds(&body, rule, &[]);
             let mut joined_by_one_side = 0;
             for i in 0..body.len() {

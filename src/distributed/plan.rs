@@ -60,13 +60,7 @@ pub fn plan<const D: usize>(ld: &LoadedDeck, ranks: usize) -> Result<Vec<RankPla
         };
         let mut sent = vec![0usize; ranks];
         for r in &ranges {
-            let Some(b) = build_bonds_of(&body, families.rule, &ld.deck.precracks, r.clone())
-            else {
-                return Err(ld.locate(vec![DeckIssue::new(
-                    "discretization",
-                    "nodes of different horizons are not yet distributed",
-                )]));
-            };
+            let b = build_bonds_of(&body, families.rule, &ld.deck.precracks, r.clone());
             let mut ghosts: Vec<u32> = b
                 .neighbors
                 .iter()

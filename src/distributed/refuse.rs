@@ -32,14 +32,10 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
             ranks,
         ));
     }
-    // Lattices (with pores), NB-NUG grids, free meshes and point clouds whose nodes share one
-    // horizon (`distributed::share` refuses the others when it builds the families); the
-    // grid's uniformity is agreed over the whole body (`solver::ranks::agreed_uniform`).
+    // Every grid but Gmsh's: lattices (refined or not, with pores), NB-NUG grids, free
+    // meshes and point clouds; the grid's uniformity is agreed over the whole body
+    // (`solver::ranks::agreed_uniform`).
     match &deck.discretization {
-        Discretization::Lattice { refine, .. } if !refine.is_empty() => Err(refusal(
-            "a refined lattice (discretization.refine, dual horizons)",
-            ranks,
-        )),
         Discretization::Gmsh { .. } => Err(refusal("a Gmsh grid", ranks)),
         _ => Ok(()),
     }
@@ -195,16 +191,10 @@ end_time = 1e-6
                 "{message}"
             );
         }
-        let refined = format!(
-            "{LATTICE}\nrefine = [{{ region = {{ type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }}, levels = 1 }}]"
-        );
-        for (grid, name) in [
-            (
-                "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
-                "a Gmsh grid",
-            ),
-            (refined.as_str(), "a refined lattice"),
-        ] {
+        for (grid, name) in [(
+            "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
+            "a Gmsh grid",
+        )] {
             let src = deck(lps, "").replace(LATTICE, grid);
             let message = refused(&src, &fresh).expect("refused");
             assert!(message.contains(name), "{message}");

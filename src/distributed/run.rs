@@ -62,9 +62,7 @@ fn run_dim<const D: usize>(
         let Some(ranges) = ranges(&weights, size) else {
             return Err(too_few(ld, body.len(), size));
         };
-        let Some(s) = split(&body, families.rule, &ld.deck.precracks, &ranges, &*ranks) else {
-            return Err(not_distributed(ld, "nodes of different horizons", size));
-        };
+        let s = split(&body, families.rule, &ld.deck.precracks, &ranges, &*ranks);
         let spacing = (ranks.min_f64(s.spacing.0), ranks.max_f64(s.spacing.1));
         let root = ranks.rank() == 0;
         built = Some(Built {

@@ -24,8 +24,7 @@ pub struct Split<const D: usize> {
     pub spacing: (f64, f64),
 }
 
-/// Splits `body` for rank `rank` of `ranges`. `None` when the families cannot be built per
-/// range (horizons that differ between nodes). Every rank calls it (it exchanges the ghost
+/// Splits `body` for rank `rank` of `ranges`. Every rank calls it (it exchanges the ghost
 /// lists with the peers).
 pub fn split<const D: usize>(
     body: &Body<D>,
@@ -33,9 +32,9 @@ pub fn split<const D: usize>(
     precracks: &[Precrack],
     ranges: &[Range<usize>],
     ranks: &dyn Ranks,
-) -> Option<Split<D>> {
+) -> Split<D> {
     let owned = ranges[ranks.rank()].clone();
-    let global = build_bonds_of(body, rule, precracks, owned.clone())?;
+    let global = build_bonds_of(body, rule, precracks, owned.clone());
     let nearest = |i: usize| {
         global
             .family(i)
@@ -76,14 +75,14 @@ pub fn split<const D: usize>(
         .chain(ghosts.iter().copied())
         .collect();
     let halo = halo(&ghosts, owned.len(), ranges, ranks, &owned);
-    Some(Split {
+    Split {
         body: part_of(body, &globals, &owned),
         bonds,
         globals,
         owned,
         halo,
         spacing,
-    })
+    }
 }
 
 /// The rank that owns global node `j`.

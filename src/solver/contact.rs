@@ -427,7 +427,7 @@ steps = 1
                     let weights = bond_weights(&body, families.rule);
                     let r = ranges(&weights, size).unwrap();
                     let p = &ld.deck.precracks;
-                    let s2 = split(&body, families.rule, p, &r, &*ranks).unwrap();
+                    let s2 = split(&body, families.rule, p, &r, &*ranks);
                     globals = Some(s2.globals.clone());
                     share = Some(Share {
                         ranks: ranks.clone(),
