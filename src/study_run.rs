@@ -255,6 +255,17 @@ pub fn run_study(ls: &LoadedStudy, opts: &StudyOptions) -> Result<StudyReport, S
         std::fs::read_to_string(runs_dir.join(format!("run_{k:04}")).join("deck.toml")).ok()
             == Some(decks[k].src.clone())
     });
+    // A finished run's outputs are read again from its folder, the record: the study file's
+    // outputs may have been redefined since (another reduction under the same name). A folder
+    // that no longer gives them runs again.
+    for (k, run) in runs.iter_mut().enumerate() {
+        if run.status == "ok" {
+            match read_outputs(ls, &runs_dir.join(format!("run_{k:04}"))) {
+                Ok(outputs) => run.outputs = outputs,
+                Err(_) => run.status.clear(),
+            }
+        }
+    }
     let total = runs.len();
     for k in 0..total {
         if !runs[k].status.is_empty() {
@@ -411,7 +422,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         Some(Reduce::Min) => Reduction::Min,
         Some(Reduce::MaxAbs) => Reduction::MaxAbs,
         Some(Reduce::FirstTimeAbove) => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),
-        Some(Reduce::TimeOfMax) => Reduction::TimeOfMax,
+        Some(Reduce::TimeOfMax) => Reduction::TimeOfMax(o.within.unwrap_or(0.0)),
         Some(Reduce::Mean) => Reduction::Mean,
         Some(Reduce::Count) => Reduction::Count,
         Some(Reduce::Pearson) => Reduction::Pearson(column(o.against.as_deref())?),

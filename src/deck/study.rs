@@ -131,6 +131,9 @@ pub struct OutputSpec {
     pub when_file: Option<String>,
     /// `angle`: the length of the first part of the path, along `against` from its first row.
     pub first: Option<f64>,
+    /// `time_of_max`: a row within this of the largest value counts as at it (a tip's
+    /// position is resolved to one grid spacing; default 0).
+    pub within: Option<f64>,
 }
 
 impl OutputSpec {
@@ -157,8 +160,8 @@ pub enum Reduce {
     /// The `time` of the first row whose value exceeds `threshold` (e.g. crack initiation:
     /// `broken_bonds` above 0); a run that never passes it has no value.
     FirstTimeAbove,
-    /// The `time` of the first row where the column has its largest value (a crack tip's y
-    /// stops rising: the crack turns horizontal).
+    /// The `time` of the first row where the column has its largest value, or comes within
+    /// `within` of it (a crack tip's y stops rising: the crack turns horizontal).
     TimeOfMax,
     /// The column's value at the time `when_column` first exceeds `threshold` (a crack's
     /// speed when its tip reaches a pore), interpolated linearly in time.
@@ -456,6 +459,7 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
             ("when_column", o.when_column.is_some()),
             ("when_file", o.when_file.is_some()),
             ("first", o.first.is_some()),
+            ("within", o.within.is_some()),
         ];
         for (key, given) in csv_only {
             if given {
@@ -514,6 +518,17 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
             "threshold",
             "a threshold is used by reduce = \"first_time_above\" or \"at_first_above\" only"
                 .into(),
+        ),
+        _ => {}
+    }
+    match o.within {
+        Some(w) if reduce != Reduce::TimeOfMax => issue(
+            "within",
+            format!("`within` ({w}) is used by reduce = \"time_of_max\" only"),
+        ),
+        Some(w) if !(w.is_finite() && w >= 0.0) => issue(
+            "within",
+            format!("expected a finite distance from the largest value, at least 0, got {w}"),
         ),
         _ => {}
     }

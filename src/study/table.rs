@@ -22,9 +22,9 @@ pub enum Reduction {
     MaxAbs,
     /// The `time` of the first row whose value exceeds the level.
     FirstTimeAbove(f64),
-    /// The `time` of the first row where the column has its largest value (when a crack tip's
-    /// y stops rising: the crack turns horizontal).
-    TimeOfMax,
+    /// The `time` of the first row where the column is within the given distance of its
+    /// largest value (when a crack tip's y stops rising: the crack turns horizontal).
+    TimeOfMax(f64),
     /// The arithmetic mean of the column's values (a crack speed over a window).
     Mean,
     /// How many rows have a value (forks in `branching.csv`, samples of a tip).
@@ -102,7 +102,7 @@ impl Table {
     ) -> Result<Option<f64>, String> {
         let c = self.column(column)?;
         let time = match (window.is_open(), how) {
-            (true, Reduction::FirstTimeAbove(_) | Reduction::TimeOfMax) | (false, _) => {
+            (true, Reduction::FirstTimeAbove(_) | Reduction::TimeOfMax(_)) | (false, _) => {
                 Some(self.column("time")?)
             }
             _ => None,
@@ -123,10 +123,10 @@ impl Table {
                 .iter()
                 .find(|r| r[c] > level)
                 .and_then(|r| time.and_then(|t| r.get(t).copied())),
-            Reduction::TimeOfMax => {
+            Reduction::TimeOfMax(within) => {
                 let largest = values().reduce(f64::max);
                 rows.iter()
-                    .find(|r| Some(r[c]) == largest)
+                    .find(|r| largest.is_some_and(|m| r[c] >= m - within))
                     .and_then(|r| time.and_then(|t| r.get(t).copied()))
             }
             Reduction::Mean => {
@@ -243,7 +243,7 @@ mod tests {
         // A tip's y rises to 3 at t = 2, stays there, dips and comes back to 3: the first time
         // it is largest is 2.
         let t = Table::parse("time,y\n0,,\n1,1\n2,3\n3,3\n4,2\n5,3\n").unwrap();
-        let r = |w| t.reduce("y", Reduction::TimeOfMax, w).unwrap();
+        let r = |w| t.reduce("y", Reduction::TimeOfMax(0.0), w).unwrap();
         assert_eq!(r(Window::default()), Some(2.0));
         // Over a window that starts after it: the largest value there is first met at 3.
         let from = |f| Window {
@@ -253,6 +253,13 @@ mod tests {
         assert_eq!(r(from(2.5)), Some(3.0));
         assert_eq!(r(from(3.5)), Some(5.0));
         assert_eq!(r(from(9.0)), None);
+        // Within 1.5 of the largest (3): first met at t = 2; within 2.5, the 1 at t = 1 counts.
+        let within = |d| {
+            t.reduce("y", Reduction::TimeOfMax(d), Window::default())
+                .unwrap()
+        };
+        assert_eq!(within(1.5), Some(2.0));
+        assert_eq!(within(2.5), Some(1.0));
     }
 
     #[test]

@@ -155,6 +155,23 @@ fn a_stopped_study_continues_with_the_same_results() {
     let third = run_study(&ls, &options(&dir)).unwrap();
     assert_eq!(third.reused, first.runs.len() - 1);
     assert_eq!(first.runs, third.runs);
+    // An output redefined under the same name (the final reaction becomes the mean over the
+    // run) is read again from every finished run's folder, not taken from the table.
+    let path = study_file(&dir, MORRIS);
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("reduce = \"final\"", "reduce = \"mean\""),
+    )
+    .unwrap();
+    let fourth = run_study(&LoadedStudy::from_file(&path).unwrap(), &options(&dir)).unwrap();
+    assert_eq!(fourth.reused, first.runs.len());
+    for (a, b) in first.runs.iter().zip(&fourth.runs) {
+        assert_ne!(
+            a.outputs, b.outputs,
+            "the redefined output was not read again"
+        );
+    }
     // A changed design does not reuse runs of another one.
     let other = MORRIS.replace("seed = 11", "seed = 12");
     let ls = LoadedStudy::from_file(&study_file(&dir, &other)).unwrap();
@@ -217,6 +234,10 @@ fn bad_study_files_are_refused_at_their_key() {
         (
             "method = \"screening\"\n",
             "unknown variant `screening`",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[outputs]]\nname = \"r\"\ncolumn = \"reaction_top_y\"\nreduce = \"final\"\nwithin = 1.0\n",
+            "outputs[0].within: `within` (1) is used by reduce = \"time_of_max\" only",
         ),
     ];
     for (body, expected) in cases {
