@@ -133,7 +133,12 @@ fn halo(
                 .collect()
         })
         .collect();
-    Halo { peers, send, recv }
+    Halo {
+        peers,
+        send,
+        recv,
+        ..Halo::default()
+    }
 }
 
 /// The rank's part of the body: its local nodes' data, and the node sets restricted to its

@@ -83,7 +83,12 @@ pub(crate) fn finish<const D: usize, M: Material<D>>(
             c.force.as_secs_f64(),
             c.integrate.as_secs_f64(),
             c.observe.as_secs_f64()
-        ),
+        ) + &sim.share.as_ref().map_or(String::new(), |s| {
+            format!(
+                "; rank 0: halo exchange {:.2} s",
+                s.halo.seconds_waited()
+            )
+        }),
         out_dir: out.to_path_buf(),
         report,
         crack: crack.and_then(|c| c.borrow().clone()),

@@ -102,7 +102,12 @@ impl<const D: usize> RemoteNodes<D> {
             }
             recv.push((start..nodes.points.len() as u32).collect());
         }
-        nodes.halo = Halo { peers, send, recv };
+        nodes.halo = Halo {
+            peers,
+            send,
+            recv,
+            ..Halo::default()
+        };
         nodes.refresh(share, current);
         nodes
     }

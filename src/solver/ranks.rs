@@ -13,7 +13,9 @@ use crate::bonds::partial_volume::NodeWeight;
 use crate::math::Vector;
 use crate::state::State;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
+use std::time::Instant;
 
 /// The other ranks of a distributed run, seen from one.
 pub trait Ranks: Send + Sync {
@@ -71,12 +73,20 @@ pub struct Halo {
     pub send: Vec<Vec<u32>>,
     /// Per peer: local ghost nodes the peer owns, in global order.
     pub recv: Vec<Vec<u32>>,
+    /// Nanoseconds spent in the swaps so far (waiting for the peers included), shared by the
+    /// clones of the halo: the run's exchange time in its summary.
+    pub waited: Arc<AtomicU64>,
 }
 
 impl Halo {
     /// Ghost nodes of this rank.
     pub fn ghosts(&self) -> usize {
         self.recv.iter().map(Vec::len).sum()
+    }
+
+    /// Seconds spent in the halo's swaps so far.
+    pub fn seconds_waited(&self) -> f64 {
+        self.waited.load(Ordering::Relaxed) as f64 * 1e-9
     }
 
     /// Bytes this rank sends per exchange of `words` f64 per node.
@@ -147,7 +157,10 @@ impl Halo {
             .iter()
             .map(|n| vec![0.0; n.len() * words])
             .collect();
+        let started = Instant::now();
         ranks.swap(&self.peers, &send, &mut recv);
+        self.waited
+            .fetch_add(started.elapsed().as_nanos() as u64, Ordering::Relaxed);
         for (nodes, buf) in self.recv.iter().zip(&recv) {
             for (&i, w) in nodes.iter().zip(buf.chunks_exact(words)) {
                 unpack(i as usize, w);
