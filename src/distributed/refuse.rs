@@ -3,7 +3,6 @@
 
 use crate::deck::build::MaterialChoice;
 use crate::deck::schema::Discretization;
-use crate::deck::solver_settings::solver_settings;
 use crate::deck::LoadedDeck;
 use crate::run::{DamageAndReports, RunControl, RunError};
 
@@ -14,21 +13,13 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
     ))
 }
 
-/// The first feature of the deck (or of the run's control) not yet distributed, if any.
-pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
+/// The first feature of the deck not yet distributed, if any (the run's control, a restart
+/// included, is distributed whole).
+pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
     if !deck.materials.is_empty() || !deck.blocks.is_empty() {
         return Err(refusal(
             "several materials ([materials], [[blocks]])",
-            ranks,
-        ));
-    }
-    // `distributed::restart` continues explicit runs; the quasi-static solver's memory of the
-    // last equilibrium and a stage's start are not yet handed to the ranks from a checkpoint.
-    let quasi_static = solver_settings(deck).quasi_static.is_some();
-    if control.restart && (quasi_static || !deck.stages.is_empty()) {
-        return Err(refusal(
-            "a restart of a quasi-static or staged run (--restart)",
             ranks,
         ));
     }
@@ -174,40 +165,28 @@ end_time = 1e-6
         }
         let stage = format!("[[stages]]\n[stages.solver]\n{explicit}");
         assert_eq!(refused(&deck("type = \"pmb\"", &stage), &fresh), None);
+        // Their restarts too.
+        let quasi_static = "type = \"quasi_static\"\nload_steps = 2";
+        let src = deck("type = \"pmb\"", "").replace(explicit, quasi_static);
+        assert_eq!(refused(&src, &restart()), None);
+        assert_eq!(refused(&deck("type = \"pmb\"", &stage), &restart()), None);
     }
 
     #[test]
     fn the_rest_is_refused_by_name() {
         let lps = "type = \"lps\"\npoisson_ratio = 0.3";
         let fresh = RunControl::default();
-        for (material, extra, control, name) in [
-            (
-                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
-                "",
-                &fresh,
-                "the correspondence model",
-            ),
-            (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a restart of a quasi-static or staged run"),
-        ] {
-            let message = refused(&deck(material, extra), control).expect("refused");
-            assert!(
-                message.contains(name) && message.contains("not yet distributed"),
-                "{message}"
-            );
-        }
+        let correspondence =
+            "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }";
+        let message = refused(&deck(correspondence, ""), &fresh).expect("refused");
+        assert!(
+            message.contains("the correspondence model") && message.contains("not yet distributed"),
+            "{message}"
+        );
         let refined = format!(
             "{LATTICE}\nrefine = [{{ region = {{ type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }}, levels = 1 }}]"
         );
-        for (grid, name) in [
-            (
-                "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
-                "a Gmsh grid",
-            ),
-            (refined.as_str(), "a refined lattice"),
-        ] {
-            let src = deck(lps, "").replace(LATTICE, grid);
-            let message = refused(&src, &fresh).expect("refused");
-            assert!(message.contains(name), "{message}");
-        }
+        let message = refused(&deck(lps, "").replace(LATTICE, &refined), &fresh).expect("refused");
+        assert!(message.contains("a refined lattice"), "{message}");
     }
 }
