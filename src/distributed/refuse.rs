@@ -23,15 +23,14 @@ pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Res
             ranks,
         ));
     }
-    // Lattices (with pores), NB-NUG grids, free meshes and point clouds whose nodes share one
-    // horizon (`distributed::share` refuses the others when it builds the families); the
+    // Lattices (with pores), NB-NUG grids, free meshes, Gmsh meshes and point clouds whose
+    // nodes share one horizon (`distributed::share` refuses the others when it builds the families); the
     // grid's uniformity is agreed over the whole body (`solver::ranks::agreed_uniform`).
     match &deck.discretization {
         Discretization::Lattice { refine, .. } if !refine.is_empty() => Err(refusal(
             "a refined lattice (discretization.refine, dual horizons)",
             ranks,
         )),
-        Discretization::Gmsh { .. } => Err(refusal("a Gmsh grid", ranks)),
         _ => Ok(()),
     }
 }
@@ -155,6 +154,11 @@ end_time = 1e-6
         let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
         let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
         assert_eq!(refused(&src, &fresh), None);
+        // A Gmsh mesh (its file is read when the model is built, after this check).
+        let gmsh = "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3";
+        let src = deck("type = \"pmb\"", "").replace(LATTICE, gmsh);
+        let ld = LoadedDeck::from_str(&src, Path::new("t.toml")).expect("a valid deck");
+        assert!(deck_refusal(&ld, &fresh, 2).is_ok());
         // The quasi-static solvers, and a staged run.
         let explicit = "type = \"explicit\"\nend_time = 1e-6";
         for method in ["adr", "ncg"] {
