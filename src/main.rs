@@ -299,7 +299,7 @@ fn main() -> ExitCode {
             } = cli.command
             else {
                 if ranks.rank() == 0 {
-                    eprintln!("error: only `peridyn run` and `peridyn study` are distributed: start other commands without mpirun (or with -np 1)");
+                    eprintln!("error: only `peridyn run` and `peridyn study` (not --dry-run) are distributed: start other commands without mpirun (or with -np 1)");
                 }
                 return ExitCode::FAILURE;
             };
