@@ -214,12 +214,81 @@ fn run_distributed(
     }
 }
 
+/// `peridyn study` over ranks, each run on one rank: rank 0 prints and writes the study's
+/// files; an error every rank meets (the study or a run's deck, a run's files) ends every
+/// rank, any other (a file rank 0 cannot write) aborts the others.
+#[cfg(feature = "mpi")]
+fn study_distributed(
+    study: &std::path::Path,
+    opts: &StudyOptions,
+    ranks: peridyn::distributed::mpi_ranks::MpiRanks,
+) -> ExitCode {
+    use peridyn::solver::ranks::Ranks;
+    use peridyn::study_run::StudyRunError;
+    let root = ranks.rank() == 0;
+    let ls = match LoadedStudy::from_file(study) {
+        Ok(ls) => ls,
+        Err(e) => {
+            if root {
+                eprintln!("error: {e}");
+            }
+            return ExitCode::FAILURE;
+        }
+    };
+    let rank = ranks.rank();
+    let shared: std::sync::Arc<dyn Ranks> = std::sync::Arc::new(ranks);
+    match peridyn::study_run::run_study_over(&ls, opts, Some(shared.clone())) {
+        Ok(report) => {
+            if root {
+                println!("{report}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(
+            e @ (StudyRunError::Deck(_)
+            | StudyRunError::Design(_)
+            | StudyRunError::Point { .. }
+            | StudyRunError::Output { .. }),
+        ) => {
+            if root {
+                eprintln!("error: {e}");
+            }
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error (rank {rank}): {e}");
+            drop(shared);
+            peridyn::distributed::mpi_ranks::MpiRanks::world().abort(1)
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     #[cfg(feature = "mpi")]
     if let Some((universe, ranks)) = ranks() {
         {
             use peridyn::solver::ranks::Ranks;
+            if let Command::Study {
+                study,
+                output,
+                threads,
+                quiet,
+                dry_run: false,
+            } = &cli.command
+            {
+                let out_dir = output
+                    .clone()
+                    .unwrap_or_else(|| PathBuf::from("results").join(deck_name(study)));
+                let opts = StudyOptions {
+                    out_dir,
+                    threads: *threads,
+                    quiet: *quiet,
+                };
+                let code = study_distributed(study, &opts, ranks);
+                drop(universe);
+                return code;
+            }
             let Command::Run {
                 deck,
                 output,
@@ -230,7 +299,7 @@ fn main() -> ExitCode {
             } = cli.command
             else {
                 if ranks.rank() == 0 {
-                    eprintln!("error: only `peridyn run` is distributed: start other commands without mpirun (or with -np 1)");
+                    eprintln!("error: only `peridyn run` and `peridyn study` (not --dry-run) are distributed: start other commands without mpirun (or with -np 1)");
                 }
                 return ExitCode::FAILURE;
             };

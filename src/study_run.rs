@@ -15,15 +15,18 @@ use crate::atomic_file::write_atomic;
 use crate::deck::edit::set_number;
 use crate::deck::study::{LoadedStudy, OutputSpec, Reduce, StudyMethod};
 use crate::deck::{DeckError, LoadedDeck};
+use crate::distributed::study::{collect, rounds, Outcome};
 use crate::plot::curve::write_named_curves_png;
 use crate::plot::morris_plot::write_morris_png;
 use crate::run::{check, run_with, RunControl, RunOptions};
+use crate::solver::ranks::Ranks;
 use crate::study::morris::{morris_statistics, Factor, FactorEffect, MorrisDesign, MorrisOptions};
 use crate::study::sweep::sweep_points;
 use crate::study::table::{Reduction, Table, Window};
 use crate::study::toml_number::number_at;
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Where and how a study runs.
@@ -241,14 +244,27 @@ pub fn plan_study(
 
 /// Runs the study (or continues it) in `opts.out_dir`.
 pub fn run_study(ls: &LoadedStudy, opts: &StudyOptions) -> Result<StudyReport, StudyRunError> {
+    run_study_over(ls, opts, None)
+}
+
+/// `run_study` with its runs spread over `ranks` (`mpirun -np N peridyn study`), each run on
+/// one rank in one process, in rounds of one run per rank (`distributed::study`); rank 0
+/// rewrites `runs.csv` after each round and writes every file of the study itself, so they
+/// are the serial study's byte for byte. The other ranks' reports hold no runs' outcomes.
+pub fn run_study_over(
+    ls: &LoadedStudy,
+    opts: &StudyOptions,
+    ranks: Option<Arc<dyn Ranks>>,
+) -> Result<StudyReport, StudyRunError> {
     let (design, mut runs, decks) = plan(ls, opts.threads)?;
-    let io = |what: &str, path: &Path, e: std::io::Error| {
-        StudyRunError::Io(format!("cannot {what} {}: {e}", path.display()))
-    };
+    let (rank, size) = ranks.as_ref().map_or((0, 1), |r| (r.rank(), r.size()));
+    let root = rank == 0;
     let runs_dir = opts.out_dir.join("runs");
     std::fs::create_dir_all(&runs_dir).map_err(|e| io("create", &runs_dir, e))?;
-    write_atomic(&opts.out_dir.join("study.toml"), ls.src.as_bytes())
-        .map_err(|e| io("write", &opts.out_dir.join("study.toml"), e))?;
+    if root {
+        write_atomic(&opts.out_dir.join("study.toml"), ls.src.as_bytes())
+            .map_err(|e| io("write", &opts.out_dir.join("study.toml"), e))?;
+    }
     let table_path = opts.out_dir.join("runs.csv");
     let header = runs_header(ls);
     let reused = resume(&table_path, &header, &mut runs, |k| {
@@ -267,67 +283,34 @@ pub fn run_study(ls: &LoadedStudy, opts: &StudyOptions) -> Result<StudyReport, S
         }
     }
     let total = runs.len();
-    for k in 0..total {
-        if !runs[k].status.is_empty() {
-            continue;
-        }
-        let dir = runs_dir.join(format!("run_{k:04}"));
-        if dir.exists() {
-            // A run the last invocation did not finish: start it again.
-            std::fs::remove_dir_all(&dir).map_err(|e| io("clear", &dir, e))?;
-        }
-        std::fs::create_dir_all(&dir).map_err(|e| io("create", &dir, e))?;
-        write_atomic(&dir.join("deck.toml"), decks[k].src.as_bytes())
-            .map_err(|e| io("write", &dir.join("deck.toml"), e))?;
-        let started = Instant::now();
-        let run_opts = RunOptions {
-            out_dir: dir.clone(),
-            threads: opts.threads,
-            quiet: true,
+    let pending: Vec<usize> = (0..total).filter(|&k| runs[k].status.is_empty()).collect();
+    for round in rounds(&pending, size) {
+        let mine = round
+            .get(rank)
+            .map(|&k| run_point(ls, opts, &decks[k], &runs_dir.join(format!("run_{k:04}"))));
+        let outcomes = match &ranks {
+            None => Some(vec![mine.expect("one rank runs every run")?]),
+            Some(r) => {
+                let mine = mine.map(|m| m.map_err(|e| e.to_string()));
+                collect(&**r, round.len(), mine).map_err(StudyRunError::Io)?
+            }
         };
-        let result = run_with(&decks[k], &run_opts, &RunControl::default());
-        let run = &mut runs[k];
-        match result {
-            Ok(_) => {
-                run.status = "ok".into();
-                run.outputs = read_outputs(ls, &dir)?;
+        let Some(outcomes) = outcomes else {
+            continue;
+        };
+        for (&k, outcome) in round.iter().zip(outcomes) {
+            runs[k].status = outcome.status;
+            runs[k].outputs = outcome.outputs;
+            write_runs(&table_path, &header, &runs).map_err(|e| io("write", &table_path, e))?;
+            if !opts.quiet {
+                print_run(ls, &runs[k], (k, total), outcome.seconds);
             }
-            Err(e) => {
-                // One line, no commas: the status is a CSV cell.
-                let message = e.to_string().replace(['\n', ','], " ");
-                run.status = format!("failed: {message}");
-                run.outputs = vec![None; ls.study.outputs.len()];
-            }
-        }
-        write_runs(&table_path, &header, &runs).map_err(|e| io("write", &table_path, e))?;
-        let run = &runs[k];
-        if !opts.quiet {
-            let outputs = ls
-                .study
-                .outputs
-                .iter()
-                .zip(&run.outputs)
-                .map(|(o, v)| {
-                    format!(
-                        "{} = {}",
-                        o.name,
-                        v.map_or("—".into(), |v| format!("{v:.5e}"))
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(", ");
-            let status = if run.status == "ok" { "" } else { " FAILED" };
-            println!(
-                "run {}/{total}{status} ({:.1} s): {} → {outputs}",
-                k + 1,
-                started.elapsed().as_secs_f64(),
-                describe(ls, &run.values),
-            );
         }
     }
-    let effects = match &design {
-        Design::Morris(d) => morris_results(ls, d, &runs, &opts.out_dir)?,
-        Design::Sweep(_) => {
+    let effects = match (&design, root) {
+        (_, false) => Vec::new(),
+        (Design::Morris(d), true) => morris_results(ls, d, &runs, &opts.out_dir)?,
+        (Design::Sweep(_), true) => {
             sweep_plots(ls, &runs, &opts.out_dir)?;
             Vec::new()
         }
@@ -340,6 +323,72 @@ pub fn run_study(ls: &LoadedStudy, opts: &StudyOptions) -> Result<StudyReport, S
         effects,
         out_dir: opts.out_dir.clone(),
     })
+}
+
+fn io(what: &str, path: &Path, e: std::io::Error) -> StudyRunError {
+    StudyRunError::Io(format!("cannot {what} {}: {e}", path.display()))
+}
+
+/// Runs one design point's `deck` in `dir` (cleared first: a run the last invocation did not
+/// finish starts again) and reads its outputs.
+fn run_point(
+    ls: &LoadedStudy,
+    opts: &StudyOptions,
+    deck: &LoadedDeck,
+    dir: &Path,
+) -> Result<Outcome, StudyRunError> {
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).map_err(|e| io("clear", dir, e))?;
+    }
+    std::fs::create_dir_all(dir).map_err(|e| io("create", dir, e))?;
+    write_atomic(&dir.join("deck.toml"), deck.src.as_bytes())
+        .map_err(|e| io("write", &dir.join("deck.toml"), e))?;
+    let started = Instant::now();
+    let run_opts = RunOptions {
+        out_dir: dir.to_path_buf(),
+        threads: opts.threads,
+        quiet: true,
+    };
+    let (status, outputs) = match run_with(deck, &run_opts, &RunControl::default()) {
+        Ok(_) => ("ok".into(), read_outputs(ls, dir)?),
+        Err(e) => {
+            // One line, no commas: the status is a CSV cell.
+            let message = e.to_string().replace(['\n', ','], " ");
+            (
+                format!("failed: {message}"),
+                vec![None; ls.study.outputs.len()],
+            )
+        }
+    };
+    Ok(Outcome {
+        status,
+        outputs,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The progress line of run `k` of `total`.
+fn print_run(ls: &LoadedStudy, run: &RunRecord, (k, total): (usize, usize), seconds: f64) {
+    let outputs = ls
+        .study
+        .outputs
+        .iter()
+        .zip(&run.outputs)
+        .map(|(o, v)| {
+            format!(
+                "{} = {}",
+                o.name,
+                v.map_or("—".into(), |v| format!("{v:.5e}"))
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    let status = if run.status == "ok" { "" } else { " FAILED" };
+    println!(
+        "run {}/{total}{status} ({seconds:.1} s): {} → {outputs}",
+        k + 1,
+        describe(ls, &run.values),
+    );
 }
 
 /// The outputs of a finished run, read from its folder. A missing file or column is the study

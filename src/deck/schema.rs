@@ -802,6 +802,28 @@ pub struct OutputDeck {
     /// Steps between further checkpoints, besides those at snapshots.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoint_interval: Option<u64>,
+    /// How the VTU snapshots are written: one file of the whole body, or one piece per rank
+    /// and a `.pvtu` that ties them (a distributed run then never gathers them on rank 0).
+    #[serde(default, skip_serializing_if = "Pieces::is_gathered")]
+    pub pieces: Pieces,
+}
+
+/// `[output] pieces`: one VTU file per snapshot, or one piece per rank and a `.pvtu`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pieces {
+    /// `fields/step_N.vtu`, the whole body (a distributed run gathers it on rank 0).
+    #[default]
+    Gathered,
+    /// `fields/step_N.pvtu` and its pieces `fields/step_N_piece_R.vtu`, one per rank, each
+    /// written by its rank from its own nodes.
+    PerRank,
+}
+
+impl Pieces {
+    fn is_gathered(&self) -> bool {
+        *self == Pieces::Gathered
+    }
 }
 
 /// A nodal field drawn as a PNG map; its deck name is also its file name.
@@ -874,6 +896,7 @@ impl Default for OutputDeck {
             openings: Vec::new(),
             checkpoint: true,
             checkpoint_interval: None,
+            pieces: Pieces::Gathered,
         }
     }
 }

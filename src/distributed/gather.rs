@@ -2,19 +2,24 @@
 //! owned nodes' fields to rank 0, which fills a state of the whole body and hands the
 //! observers that — the same view, and so the same files, as one process writes. Bonds stay
 //! on their ranks: an observer that reads the broken bonds (`[analysis.crack_surface]`) gets
-//! each rank's broken halves, gathered in rank order (the one-process node order).
+//! each rank's broken halves, gathered in rank order (the one-process node order). With
+//! `[output] pieces = "per_rank"` each rank writes its owned nodes' snapshot piece itself, and
+//! a step whose observers read no field (the `.pvtu` and `fields.pvd` only) gathers none.
 
 use crate::analysis::BrokenHalf;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::checkpoint::DriverState;
 use crate::math::Vector;
+use crate::observe::observer::Every;
+use crate::observe::snapshots::{piece_name, NodeFields};
 use crate::observe::{Observer, StepView};
 use crate::run::{RunError, ViewSource};
 use crate::solver::impactor::Impactor;
 use crate::solver::ranks::Ranks;
 use crate::solver::Fields;
 use crate::state::State;
+use std::path::PathBuf;
 use std::sync::Arc;
 
 /// Per node: u, v, current position, force and body force (D each), damage, energy density.
@@ -28,6 +33,15 @@ pub struct Gather<const D: usize> {
     owned: usize,
     /// Rank 0's whole-body fields.
     root: Option<Root<D>>,
+    /// With `[output] pieces = "per_rank"`: this rank's snapshot pieces.
+    pieces: Option<PieceWriter>,
+}
+
+/// Writes a rank's piece of each snapshot, on the snapshots' schedule (`Snapshots::wants`).
+pub struct PieceWriter {
+    /// The results' `fields/` folder.
+    pub dir: PathBuf,
+    pub every: Every,
 }
 
 /// The whole body's fields on rank 0, as the observers read them.
@@ -61,6 +75,16 @@ impl<const D: usize> Gather<D> {
     /// `whole`: on rank 0, the whole body and every node's density; `owned`: this rank's
     /// owned nodes.
     pub fn new(ranks: Arc<dyn Ranks>, owned: usize, whole: Option<(Body<D>, Vec<f64>)>) -> Self {
+        Self::writing(ranks, owned, whole, None)
+    }
+
+    /// `new`, each rank writing its own snapshot pieces with `pieces`.
+    pub fn writing(
+        ranks: Arc<dyn Ranks>,
+        owned: usize,
+        whole: Option<(Body<D>, Vec<f64>)>,
+        pieces: Option<PieceWriter>,
+    ) -> Self {
         let root = whole.map(|(body, densities)| {
             let n = body.len();
             let bonds = Bonds {
@@ -82,7 +106,42 @@ impl<const D: usize> Gather<D> {
                 body,
             }
         });
-        Gather { ranks, owned, root }
+        Gather {
+            ranks,
+            owned,
+            root,
+            pieces,
+        }
+    }
+
+    /// Writes this rank's piece of the snapshot of `fields`' step, if one is due; every rank
+    /// learns whether every piece was written (and so they all are before rank 0 writes the
+    /// `.pvtu` that names them).
+    fn write_piece(&self, fields: &dyn Fields<D>, wanted: bool) -> Result<(), RunError> {
+        let Some(p) = &self.pieces else {
+            return Ok(());
+        };
+        let step = fields.state().step;
+        if !p.every.hits(step, wanted) {
+            return Ok(());
+        }
+        let (body, state) = (fields.body(), fields.state());
+        let (damage, energy) = (fields.damage(), fields.energy_density());
+        let written = NodeFields::of(
+            (&body.positions, &body.blocks),
+            (&state.u, &state.v),
+            (&damage, &energy),
+            self.owned,
+        )
+        .write(&p.dir.join(piece_name(step, self.ranks.rank())));
+        let failed = self.ranks.sum_u64(written.is_err() as u64);
+        match written {
+            Err(e) => Err(e.into()),
+            Ok(()) if failed > 0 => Err(RunError::Distributed(format!(
+                "{failed} rank(s) could not write their piece of the snapshot of step {step}"
+            ))),
+            Ok(()) => Ok(()),
+        }
     }
 }
 
@@ -101,23 +160,37 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         if !self.ranks.broadcast_bool(want) {
             return Ok(());
         }
-        let reads_bonds = observers
-            .iter()
-            .any(|o| o.wants(step, wanted) && o.reads_broken_bonds());
+        self.write_piece(fields, wanted)?;
+        let wanting = |read: fn(&dyn Observer<D>) -> bool| {
+            observers
+                .iter()
+                .any(|o| o.wants(step, wanted) && read(o.as_ref()))
+        };
+        let (reads_bonds, reads_fields) = (
+            wanting(|o| o.reads_broken_bonds()),
+            wanting(|o| o.reads_fields()),
+        );
         let halves = self
             .ranks
             .broadcast_bool(reads_bonds)
             .then(|| self.ranks.gather(&pack_halves(&fields.broken_halves())));
-        let (damage, energy) = (fields.damage(), fields.energy_density());
         let dissipation = fields.damage_dissipation();
-        let Some(all) = self.gather_nodes(state, &[&damage, &energy]) else {
+        if self.ranks.broadcast_bool(reads_fields) {
+            let (damage, energy) = (fields.damage(), fields.energy_density());
+            let Some(all) = self.gather_nodes(state, &[&damage, &energy]) else {
+                return Ok(());
+            };
+            let root = self.root.as_mut().expect("rank 0 keeps the whole body");
+            for (i, w) in all.chunks_exact(words(D)).enumerate() {
+                root.damage[i] = w[5 * D];
+                root.energy[i] = w[5 * D + 1];
+            }
+        }
+        // The observers that read no field read the step and time.
+        let Some(root) = self.root.as_mut() else {
             return Ok(());
         };
-        let root = self.root.as_mut().expect("rank 0 keeps the whole body");
-        for (i, w) in all.chunks_exact(words(D)).enumerate() {
-            root.damage[i] = w[5 * D];
-            root.energy[i] = w[5 * D + 1];
-        }
+        root.state.step_like(state);
         root.dissipation = dissipation;
         if let Some(words) = halves.flatten() {
             root.halves = unpack_halves(&words);
@@ -199,15 +272,23 @@ impl<const D: usize> Gather<D> {
             (s.u[i], s.v[i], s.current[i], s.force[i], s.body_force[i]) =
                 (v(0), v(1), v(2), v(3), v(4));
         }
-        s.time = state.time;
-        s.step = state.step;
-        s.broken = state.broken;
-        s.external_work = state.external_work;
-        s.dissipated_viscous = state.dissipated_viscous;
-        s.dissipated_damage = state.dissipated_damage;
-        s.dt = state.dt;
-        s.iterations = state.iterations;
+        s.step_like(state);
         Some(all)
+    }
+}
+
+impl<const D: usize> State<D> {
+    /// Takes `other`'s scalars (time, step, the counts and energies booked so far), the same
+    /// on every rank.
+    fn step_like(&mut self, other: &State<D>) {
+        self.time = other.time;
+        self.step = other.step;
+        self.broken = other.broken;
+        self.external_work = other.external_work;
+        self.dissipated_viscous = other.dissipated_viscous;
+        self.dissipated_damage = other.dissipated_damage;
+        self.dt = other.dt;
+        self.iterations = other.iterations;
     }
 }
 

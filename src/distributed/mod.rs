@@ -18,6 +18,7 @@ pub mod refuse;
 pub mod restart;
 pub mod run;
 pub mod share;
+pub mod study;
 #[cfg(test)]
 pub mod thread_ranks;
 

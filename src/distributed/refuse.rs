@@ -2,8 +2,6 @@
 //! run to a different answer.
 
 use crate::deck::build::MaterialChoice;
-use crate::deck::schema::Discretization;
-use crate::deck::solver_settings::solver_settings;
 use crate::deck::LoadedDeck;
 use crate::run::{DamageAndReports, RunControl, RunError};
 
@@ -14,8 +12,9 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
     ))
 }
 
-/// The first feature of the deck (or of the run's control) not yet distributed, if any.
-pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
+/// The first feature of the deck not yet distributed, if any (the run's control, a restart
+/// included, is distributed whole).
+pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
     if !deck.materials.is_empty() || !deck.blocks.is_empty() {
         return Err(refusal(
@@ -23,22 +22,10 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
             ranks,
         ));
     }
-    // `distributed::restart` continues explicit runs; the quasi-static solver's memory of the
-    // last equilibrium and a stage's start are not yet handed to the ranks from a checkpoint.
-    let quasi_static = solver_settings(deck).quasi_static.is_some();
-    if control.restart && (quasi_static || !deck.stages.is_empty()) {
-        return Err(refusal(
-            "a restart of a quasi-static or staged run (--restart)",
-            ranks,
-        ));
-    }
-    // Every grid but Gmsh's: lattices (refined or not, with pores), NB-NUG grids, free
-    // meshes and point clouds; the grid's uniformity is agreed over the whole body
-    // (`solver::ranks::agreed_uniform`).
-    match &deck.discretization {
-        Discretization::Gmsh { .. } => Err(refusal("a Gmsh grid", ranks)),
-        _ => Ok(()),
-    }
+    // Every grid is distributed: lattices (refined or not, with pores), NB-NUG grids, free
+    // meshes, Gmsh meshes and point clouds; the grid's uniformity is agreed over the whole
+    // body (`solver::ranks::agreed_uniform`).
+    Ok(())
 }
 
 /// Refuses the models and damage laws not yet distributed.
@@ -160,6 +147,11 @@ end_time = 1e-6
         let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
         let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
         assert_eq!(refused(&src, &fresh), None);
+        // A Gmsh mesh (its file is read when the model is built, after this check).
+        let gmsh = "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3";
+        let src = deck("type = \"pmb\"", "").replace(LATTICE, gmsh);
+        let ld = LoadedDeck::from_str(&src, Path::new("t.toml")).expect("a valid deck");
+        assert!(deck_refusal(&ld, &fresh, 2).is_ok());
         // The quasi-static solvers, and a staged run.
         let explicit = "type = \"explicit\"\nend_time = 1e-6";
         for method in ["adr", "ncg"] {
@@ -170,34 +162,23 @@ end_time = 1e-6
         }
         let stage = format!("[[stages]]\n[stages.solver]\n{explicit}");
         assert_eq!(refused(&deck("type = \"pmb\"", &stage), &fresh), None);
+        // Their restarts too.
+        let quasi_static = "type = \"quasi_static\"\nload_steps = 2";
+        let src = deck("type = \"pmb\"", "").replace(explicit, quasi_static);
+        assert_eq!(refused(&src, &restart()), None);
+        assert_eq!(refused(&deck("type = \"pmb\"", &stage), &restart()), None);
     }
 
     #[test]
     fn the_rest_is_refused_by_name() {
         let lps = "type = \"lps\"\npoisson_ratio = 0.3";
         let fresh = RunControl::default();
-        for (material, extra, control, name) in [
-            (
-                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
-                "",
-                &fresh,
-                "the correspondence model",
-            ),
-            (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a restart of a quasi-static or staged run"),
-        ] {
-            let message = refused(&deck(material, extra), control).expect("refused");
-            assert!(
-                message.contains(name) && message.contains("not yet distributed"),
-                "{message}"
-            );
-        }
-        for (grid, name) in [(
-            "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
-            "a Gmsh grid",
-        )] {
-            let src = deck(lps, "").replace(LATTICE, grid);
-            let message = refused(&src, &fresh).expect("refused");
-            assert!(message.contains(name), "{message}");
-        }
+        let correspondence =
+            "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }";
+        let message = refused(&deck(correspondence, ""), &fresh).expect("refused");
+        assert!(
+            message.contains("the correspondence model") && message.contains("not yet distributed"),
+            "{message}"
+        );
     }
 }

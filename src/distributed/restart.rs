@@ -2,7 +2,9 @@
 //! `checkpoint.bin` is the file one process writes whatever the number of ranks that wrote
 //! it, so rank 0 reads it whole (into a state of the whole body, with every check of
 //! `checkpoint::restore`) and sends each rank its part: the scalars of the state and of the
-//! driver (the same on every rank), its owned nodes' u, v, y, f and b, and its rows' bond
+//! driver (the same on every rank: the adaptive step's controller, the stage in progress, the
+//! quasi-static solver's increment, largest load and iteration count), its owned nodes' u, v,
+//! y, f and b and the quasi-static predictor's last displacements, and its rows' bond
 //! status and history (a rank's rows are contiguous in the global order: they follow the
 //! rows of the ranks before it). The ghosts then take their owners' u, v and y by the halo
 //! exchange, not from the file. Rank 0 holds the file, the whole state and one rank's part
@@ -12,6 +14,7 @@ use crate::checkpoint::{DriverState, Origin};
 use crate::material::Material;
 use crate::math::Vector;
 use crate::run::{RunControl, RunError};
+use crate::solver::quasi_static::QuasiStaticMemory;
 use crate::solver::Simulation;
 use crate::state::State;
 use std::path::Path;
@@ -29,6 +32,11 @@ struct Rows {
 
 /// The scalars a part starts with: the state's and the driver's.
 const HEAD: usize = 14;
+
+/// The quasi-static solver's scalars after them: whether it has a memory, its increment,
+/// largest load and iterations, whether it has a predictor's point, and that point's time
+/// (its displacements, D words per owned node, follow the node vectors).
+const QUASI_STATIC: usize = 6;
 
 /// With `control.restart`, restores every rank's share of the checkpoint in `out` into
 /// `sim` (a distributed run's) and returns the driver state, on every rank. Every rank calls
@@ -116,10 +124,10 @@ fn read_whole<const D: usize>(
     let mut whole = sized::<D>(sum(|r| r.owned), sum(|r| r.entries), sum(|r| r.history));
     let path = out.join(crate::checkpoint::FILE_NAME);
     let driver = crate::checkpoint::restore(&path, origin, &mut whole)?;
-    if driver.quasi_static.is_some() || !driver.impactors.is_empty() {
-        // The deck's hash matched, and such decks are refused at start.
+    if !driver.impactors.is_empty() {
+        // The impactors' state is not scattered yet.
         return Err(super::refuse::refusal(
-            "a restart of a quasi-static run or one with impactors",
+            "a restart of a run with impactors",
             rows.len(),
         ));
     }
@@ -166,7 +174,9 @@ fn part_of<const D: usize>(
     } = rows[r];
     let entries_first: usize = rows[..r].iter().map(|x| x.entries).sum();
     let history_first: usize = rows[..r].iter().map(|x| x.history).sum();
-    let mut part = Vec::with_capacity(HEAD + owned * 5 * D + entries + history);
+    let qs = driver.quasi_static.as_ref();
+    let previous = qs.and_then(|m| m.previous.as_ref());
+    let mut part = Vec::with_capacity(HEAD + QUASI_STATIC + owned * 6 * D + entries + history);
     part.extend([
         whole.time,
         f64::from_bits(whole.step),
@@ -183,6 +193,14 @@ fn part_of<const D: usize>(
         f64::from_bits(driver.stage_start.0),
         driver.stage_start.1,
     ]);
+    part.extend([
+        qs.is_some() as u8 as f64,
+        qs.map_or(0.0, |m| m.increment),
+        qs.map_or(0.0, |m| m.largest_load),
+        f64::from_bits(qs.map_or(0, |m| m.iterations)),
+        previous.is_some() as u8 as f64,
+        previous.map_or(0.0, |p| p.0),
+    ]);
     for a in [
         &whole.u,
         &whole.v,
@@ -191,6 +209,11 @@ fn part_of<const D: usize>(
         &whole.body_force,
     ] {
         for x in &a[first..first + owned] {
+            part.extend_from_slice(x.as_slice());
+        }
+    }
+    if let Some((_, u)) = previous {
+        for x in &u[first..first + owned] {
             part.extend_from_slice(x.as_slice());
         }
     }
@@ -212,7 +235,8 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
     state.dissipated_damage = head[5];
     state.dt = head[6];
     state.iterations = bits(7);
-    let driver = DriverState {
+    let (qs, rest) = rest.split_at(QUASI_STATIC);
+    let mut driver = DriverState {
         next_dt: head[8],
         since_change: bits(9),
         rejected: bits(10),
@@ -233,6 +257,19 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
         for (x, w) in a[..owned].iter_mut().zip(&mut words) {
             *x = Vector::<D>::from_column_slice(w);
         }
+    }
+    // The predictor's point: this rank's owned nodes (it moves only those).
+    let (previous, rest) = rest.split_at(if qs[4] == 1.0 { owned * D } else { 0 });
+    if qs[0] == 1.0 {
+        driver.quasi_static = Some(QuasiStaticMemory {
+            increment: qs[1],
+            largest_load: qs[2],
+            iterations: qs[3].to_bits(),
+            previous: (qs[4] == 1.0).then(|| {
+                let u = previous.chunks_exact(D);
+                (qs[5], u.map(Vector::<D>::from_column_slice).collect())
+            }),
+        });
     }
     let (status, history) = rest.split_at(state.status.len());
     assert_eq!(
@@ -314,5 +351,54 @@ mod tests {
             assert_eq!((local.dissipated_damage, local.iterations), (0.3, 1));
             (entry, word) = (entry + mine.entries, word + mine.history);
         }
+    }
+
+    /// The quasi-static solver's memory: its scalars on every rank, the predictor's point as
+    /// each rank's owned nodes; the stage in progress with the other scalars.
+    #[test]
+    fn each_rank_gets_the_quasi_static_memory_of_its_nodes() {
+        let whole = whole();
+        let previous: Vec<Vector<2>> = (0..7)
+            .map(|i| Vector::<2>::new(0.5 * i as f64, 1.0))
+            .collect();
+        let mut driver = DriverState::<2> {
+            stage: 1,
+            stage_start: (40, 3e-6),
+            quasi_static: Some(QuasiStaticMemory {
+                increment: 0.125,
+                largest_load: 7.5,
+                previous: Some((9e-7, previous.clone())),
+                iterations: 4321,
+            }),
+            ..DriverState::default()
+        };
+        let all = [(0, 3), (3, 2), (5, 2)].map(|(first, owned)| Rows {
+            first,
+            owned,
+            entries: 0,
+            history: 0,
+        });
+        let (whole_status, whole_history) = (Vec::new(), Vec::new());
+        let whole = State {
+            status: whole_status,
+            history: whole_history,
+            ..whole
+        };
+        for (r, mine) in all.iter().enumerate() {
+            let mut local = sized::<2>(mine.owned + 1, 0, 0);
+            let got = unpack(&part_of(&whole, &driver, &all, r), &mut local, mine.owned);
+            let memory = got.quasi_static.as_ref().expect("a memory");
+            let (t, u) = memory.previous.as_ref().expect("a predictor's point");
+            assert_eq!(*t, 9e-7);
+            assert_eq!(u[..], previous[mine.first..mine.first + mine.owned]);
+            assert_eq!((memory.increment, memory.largest_load), (0.125, 7.5));
+            assert_eq!(memory.iterations, 4321);
+            assert_eq!((got.stage, got.stage_start), (1, (40, 3e-6)));
+        }
+        // Before the first committed load step: no predictor's point.
+        driver.quasi_static.as_mut().unwrap().previous = None;
+        let mut local = sized::<2>(3, 0, 0);
+        let got = unpack(&part_of(&whole, &driver, &all, 0), &mut local, 3);
+        assert_eq!(got, driver);
     }
 }

@@ -3,16 +3,18 @@
 //! step (`Simulation::share`), and gathers the fields rank 0's observers read; rank 0 alone
 //! writes the files.
 
-use super::gather::Gather;
+use super::gather::{Gather, PieceWriter};
 use super::partition::{bond_weights, ranges};
 use super::refuse::{constitution_refusal, deck_refusal};
 use super::share::split;
 use crate::body::Body;
 use crate::deck::build::{build_constitution, build_model_with, MaterialChoice, Model, Part};
+use crate::deck::schema::Pieces;
 use crate::deck::solver_settings::solver_settings;
 use crate::deck::LoadedDeck;
 use crate::grid::GridReport;
 use crate::material::Material;
+use crate::observe::observer::Every;
 use crate::run::finish::{finish, Finished};
 use crate::run::observers::{attach_to, Attached};
 use crate::run::restart::checkpoints;
@@ -171,6 +173,7 @@ fn run_model<const D: usize, M: Material<D>>(
             &report,
             (staged, restarting),
             at,
+            ranks.size(),
         )?;
         (Some(attached), Some((body, densities)))
     } else {
@@ -192,7 +195,14 @@ fn run_model<const D: usize, M: Material<D>>(
         }) => (observers, crack, path, surface),
         None => (Vec::new(), None, None, None),
     };
-    let mut gather = Gather::new(ranks.clone(), owned, whole);
+    // Each rank writes its piece of every snapshot into the folder rank 0's snapshots made
+    // before the first step (each piece follows rank 0's word that the step is observed).
+    let pieces =
+        (ld.deck.output.pieces == Pieces::PerRank && ranks.size() > 1).then(|| PieceWriter {
+            dir: out.join("fields"),
+            every: Every(snapshot_every),
+        });
+    let mut gather = Gather::writing(ranks.clone(), owned, whole, pieces);
     let started = Instant::now();
     let result = {
         let stop_after = control.stop_after_step;

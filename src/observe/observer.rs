@@ -91,6 +91,11 @@ pub trait Observer<const D: usize> {
     fn reads_broken_bonds(&self) -> bool {
         false
     }
+    /// Whether `observe` reads the nodes' fields; `false`: only the view's step and time (a
+    /// distributed run then gathers no field for it).
+    fn reads_fields(&self) -> bool {
+        true
+    }
     /// Called once at the end, also after a failed step, so nothing written so far is lost.
     fn finish(&mut self) -> std::io::Result<()> {
         Ok(())

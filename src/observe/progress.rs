@@ -83,4 +83,10 @@ impl<const D: usize> Observer<D> for Progress {
         }
         Ok(())
     }
+
+    /// The step, time and broken bonds only: a distributed run gathers no field for it (its
+    /// plain lines want every step).
+    fn reads_fields(&self) -> bool {
+        false
+    }
 }

@@ -99,6 +99,51 @@ fn invalid(msg: String) -> io::Error {
     io::Error::new(io::ErrorKind::InvalidInput, msg)
 }
 
+/// The VTK type and the number of components a field is written with.
+fn declared(data: &FieldData) -> (&'static str, usize) {
+    match *data {
+        FieldData::Scalar(_) => ("Float64", 1),
+        FieldData::Int(_) => ("Int32", 1),
+        // Two components are padded to three (see `FieldData::Vector`).
+        FieldData::Vector { components: 2, .. } => ("Float64", 3),
+        FieldData::Vector { components, .. } => ("Float64", components),
+    }
+}
+
+/// Writes a `.pvtu` file (atomically): the VTU `pieces` (paths relative to its folder), each
+/// written by `write_vtu` with fields of the names, types and components of `fields`, as one
+/// dataset. Only the fields' declarations are read, not their data.
+pub fn write_pvtu(path: &Path, fields: &[Field], pieces: &[String]) -> io::Result<()> {
+    let mut s = String::new();
+    s.push_str("<?xml version=\"1.0\"?>\n");
+    s.push_str(
+        "<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    s.push_str("  <PUnstructuredGrid GhostLevel=\"0\">\n");
+    s.push_str("    <PPointData>\n");
+    let array = |s: &mut String, vtk_type: &str, name: &str, components: usize| {
+        s.push_str(&format!(
+            "      <PDataArray type=\"{vtk_type}\" Name=\"{}\" NumberOfComponents=\"{components}\"/>\n",
+            xml_attr(name)
+        ));
+    };
+    for f in fields {
+        let (vtk_type, components) = declared(&f.data);
+        array(&mut s, vtk_type, f.name, components);
+    }
+    s.push_str("    </PPointData>\n");
+    s.push_str("    <PCellData>\n    </PCellData>\n");
+    s.push_str("    <PPoints>\n");
+    array(&mut s, "Float64", "Points", 3);
+    s.push_str("    </PPoints>\n");
+    for p in pieces {
+        s.push_str(&format!("    <Piece Source=\"{}\"/>\n", xml_attr(p)));
+    }
+    s.push_str("  </PUnstructuredGrid>\n</VTKFile>\n");
+    atomic::write_atomic(path, s.as_bytes())
+}
+
 /// Checks one field against the point count and turns it into an array
 /// description.
 fn describe<'a>(field: &Field<'a>, n: usize) -> io::Result<ArrayDesc<'a>> {

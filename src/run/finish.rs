@@ -94,6 +94,10 @@ pub(crate) fn finish<const D: usize, M: Material<D>>(
         crack: crack.and_then(|c| c.borrow().clone()),
         crack_path: path.and_then(|c| c.borrow().clone()),
         crack_surface: surface.and_then(|c| c.borrow().clone()),
+        notes: crate::observe::snapshots::maps_skipped(&ld.deck.output, nodes)
+            .then(|| crate::observe::snapshots::maps_skipped_note(nodes))
+            .into_iter()
+            .collect(),
     };
     if !writes {
         return Ok(summary);

@@ -44,11 +44,11 @@ pub(super) fn attach<const D: usize, M: Material<D>>(
 ) -> Result<Attached<D>, RunError> {
     let at = (sim.state.step, sim.state.time);
     let body = (&sim.body, sim.densities[0]);
-    attach_to(ld, opts, body, report, (staged, restarting), at)
+    attach_to(ld, opts, body, report, (staged, restarting), at, 1)
 }
 
-/// `attach` for the whole `body` (and node 0's density) of a run at `(step, time)`: a
-/// distributed run's rank 0 attaches its observers to the whole body it gathers.
+/// `attach` for the whole `body` (and node 0's density) of a run at `(step, time)` on `ranks`
+/// ranks: a distributed run's rank 0 attaches its observers to the whole body it gathers.
 pub(crate) fn attach_to<const D: usize>(
     ld: &LoadedDeck,
     opts: &RunOptions,
@@ -56,6 +56,7 @@ pub(crate) fn attach_to<const D: usize>(
     report: &ModelReport,
     (staged, restarting): (bool, bool),
     (step, time): (u64, f64),
+    ranks: usize,
 ) -> Result<Attached<D>, RunError> {
     let deck = &ld.deck;
     let out = &opts.out_dir;
@@ -73,12 +74,20 @@ pub(crate) fn attach_to<const D: usize>(
         // The files keep what they held up to the checkpoint's step.
         (
             Box::new(ResumedCsv::new(&history_path, step, history)?) as Box<dyn Observer<D>>,
-            Snapshots::resume(out.clone(), time, snapshot_every, output, &title)?,
+            Snapshots::resume(out.clone(), time, snapshot_every, output, &title)?.on_ranks(
+                ranks,
+                body.len(),
+                output,
+            ),
         )
     } else {
         (
             history(&history_path),
-            Snapshots::new(out.clone(), snapshot_every, output, &title)?,
+            Snapshots::new(out.clone(), snapshot_every, output, &title)?.on_ranks(
+                ranks,
+                body.len(),
+                output,
+            ),
         )
     };
     let mut observers: Vec<Box<dyn Observer<D>>> = vec![

@@ -177,6 +177,8 @@ pub struct RunSummary {
     pub crack_path: Option<PathReport>,
     /// With `[analysis.crack_surface]`: the crack area, its cells and E_diss/A.
     pub crack_surface: Option<CrackSurfaceReport>,
+    /// What the run left out of its output, and why (e.g. maps of a body too large).
+    pub notes: Vec<String>,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -201,6 +203,9 @@ impl std::fmt::Display for RunSummary {
         }
         if let Some(a) = &self.crack_surface {
             writeln!(f, "crack surface    {a}")?;
+        }
+        for note in &self.notes {
+            writeln!(f, "note             {note}")?;
         }
         writeln!(f, "timers           {}", self.timers)?;
         write!(f, "results in       {}", self.out_dir.display())

@@ -3,8 +3,9 @@
 # continued from its checkpoint on B ranks (by default 2 → 3, 3 → 1 and 1 → 2), every file of
 # the continued run compared byte for byte with the whole run's (summary.txt without its
 # wall-time lines). The run stops halfway between its middle snapshot and the next, so it
-# continues from the checkpoint of the middle one (in the decks below, with the crack running
-# and, under the adaptive time step, dt reduced). Needs a build with the `mpi` feature:
+# continues from the checkpoint of the middle one (in the decks below, with the crack running;
+# under the adaptive time step, dt reduced; in the quasi-static run, its load increment split
+# and its predictor's last point set; in the staged run, inside its explicit release stage). Needs a build with the `mpi` feature:
 #   cargo build --release --features mpi && tests/mpi/restart.sh [DECK...]
 # As root, Open MPI needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
 set -euo pipefail
@@ -12,7 +13,8 @@ cd "$(dirname "$0")/../.."
 bin=${PERIDYN:-target/release/peridyn}
 pairs=${PAIRS:-"2:3 3:1 1:2"}
 if [ $# -eq 0 ]; then
-  set -- tests/mpi/lps_energy_notched.toml tests/mpi/pmb_energy_adaptive.toml
+  set -- tests/mpi/lps_energy_notched.toml tests/mpi/pmb_energy_adaptive.toml \
+    tests/mpi/pmb_adr_notched.toml tests/mpi/pmb_staged_preload_release.toml
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
