@@ -267,7 +267,7 @@ pub fn run_study_over(
     }
     let table_path = opts.out_dir.join("runs.csv");
     let header = runs_header(ls);
-    let reused = resume(&table_path, &header, &mut runs, |k| {
+    let mut reused = resume(&table_path, &header, &mut runs, |k| {
         std::fs::read_to_string(runs_dir.join(format!("run_{k:04}")).join("deck.toml")).ok()
             == Some(decks[k].src.clone())
     });
@@ -278,7 +278,10 @@ pub fn run_study_over(
         if run.status == "ok" {
             match read_outputs(ls, &runs_dir.join(format!("run_{k:04}"))) {
                 Ok(outputs) => run.outputs = outputs,
-                Err(_) => run.status.clear(),
+                Err(_) => {
+                    run.status.clear();
+                    reused -= 1;
+                }
             }
         }
     }

@@ -16,7 +16,7 @@ use crate::observe::snapshots::{piece_name, NodeFields};
 use crate::observe::{Observer, StepView};
 use crate::run::{RunError, ViewSource};
 use crate::solver::impactor::Impactor;
-use crate::solver::ranks::Ranks;
+use crate::solver::ranks::{bytes_from_words, bytes_to_words, Ranks};
 use crate::solver::Fields;
 use crate::state::State;
 use std::path::PathBuf;
@@ -213,12 +213,18 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
     fn whole_state(&mut self, state: &State<D>) -> Option<&State<D>> {
         // The bond entries of the owned rows are all of this rank's (a ghost has none), and
         // the ranks' rows follow each other in the global order.
-        let status: Vec<f64> = state.status.iter().map(|&b| b as f64).collect();
-        let status = self.ranks.gather(&status);
+        let status = self.ranks.gather(&bytes_to_words(&state.status));
         let history = self.ranks.gather(&state.history);
         self.gather_nodes(state, &[])?;
         let root = self.root.as_mut()?;
-        root.state.status = status?.into_iter().map(|b| b as u8).collect();
+        // Every rank's packed status in rank order.
+        let (mut words, mut whole) = (&status?[..], Vec::new());
+        while !words.is_empty() {
+            let (bytes, rest) = bytes_from_words(words);
+            whole.extend(bytes);
+            words = rest;
+        }
+        root.state.status = whole;
         root.state.history = history?;
         Some(&root.state)
     }

@@ -15,6 +15,7 @@ use crate::material::Material;
 use crate::math::Vector;
 use crate::run::{RunControl, RunError};
 use crate::solver::quasi_static::QuasiStaticMemory;
+use crate::solver::ranks::{bytes_from_words, bytes_to_words};
 use crate::solver::Simulation;
 use crate::state::State;
 use std::path::Path;
@@ -176,7 +177,8 @@ fn part_of<const D: usize>(
     let history_first: usize = rows[..r].iter().map(|x| x.history).sum();
     let qs = driver.quasi_static.as_ref();
     let previous = qs.and_then(|m| m.previous.as_ref());
-    let mut part = Vec::with_capacity(HEAD + QUASI_STATIC + owned * 6 * D + entries + history);
+    let mut part =
+        Vec::with_capacity(HEAD + QUASI_STATIC + owned * 6 * D + 1 + entries.div_ceil(8) + history);
     part.extend([
         whole.time,
         f64::from_bits(whole.step),
@@ -218,7 +220,7 @@ fn part_of<const D: usize>(
         }
     }
     let status = &whole.status[entries_first..entries_first + entries];
-    part.extend(status.iter().map(|&b| b as f64));
+    part.extend(bytes_to_words(status));
     part.extend_from_slice(&whole.history[history_first..history_first + history]);
     part
 }
@@ -271,15 +273,12 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
             }),
         });
     }
-    let (status, history) = rest.split_at(state.status.len());
-    assert_eq!(
-        history.len(),
-        state.history.len(),
+    let (status, history) = bytes_from_words(rest);
+    assert!(
+        status.len() == state.status.len() && history.len() == state.history.len(),
         "a part of this rank's size"
     );
-    for (b, &w) in state.status.iter_mut().zip(status) {
-        *b = w as u8;
-    }
+    state.status = status;
     state.history.copy_from_slice(history);
     driver
 }

@@ -169,6 +169,31 @@ impl Halo {
     }
 }
 
+/// Bytes (bond status) as f64 words for the transport, eight to a word bit for bit, after
+/// the exact byte count: an eighth of the words one byte per word takes.
+pub fn bytes_to_words(bytes: &[u8]) -> Vec<f64> {
+    let mut words = Vec::with_capacity(1 + bytes.len().div_ceil(8));
+    words.push(bytes.len() as f64);
+    words.extend(bytes.chunks(8).map(|c| {
+        let mut b = [0u8; 8];
+        b[..c.len()].copy_from_slice(c);
+        f64::from_bits(u64::from_le_bytes(b))
+    }));
+    words
+}
+
+/// One `bytes_to_words` read off the front of `words`: the bytes, and the words after them.
+pub fn bytes_from_words(words: &[f64]) -> (Vec<u8>, &[f64]) {
+    let n = words[0] as usize;
+    let (packed, rest) = words[1..].split_at(n.div_ceil(8));
+    let mut bytes: Vec<u8> = packed
+        .iter()
+        .flat_map(|w| w.to_bits().to_le_bytes())
+        .collect();
+    bytes.truncate(n);
+    (bytes, rest)
+}
+
 /// Whether the whole body is a uniform grid, from each rank's `local` answer for its owned
 /// nodes and ghosts: the one weight if every rank has it (bitwise: the smallest and largest
 /// over ranks agree), else none. A rank's nodes may all be alike in a body that is not.
@@ -326,6 +351,28 @@ pub fn chunked_sums<const W: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bond status bytes of any length, packed eight to a word and read back in a row (as
+    /// rank 0 reads the ranks' parts), are the same bytes; the words are an eighth as many.
+    #[test]
+    fn bytes_travel_eight_to_a_word() {
+        let parts: Vec<Vec<u8>> = [0usize, 1, 7, 8, 9, 23]
+            .iter()
+            .map(|&n| (0..n).map(|i| (i * 37 % 256) as u8).collect())
+            .collect();
+        let words: Vec<f64> = parts.iter().flat_map(|p| bytes_to_words(p)).collect();
+        assert_eq!(words.len(), parts.len() + (1 + 1 + 1 + 2 + 3));
+        let mut rest = &words[..];
+        for p in &parts {
+            let (bytes, after) = bytes_from_words(rest);
+            assert_eq!(&bytes, p);
+            rest = after;
+        }
+        assert!(rest.is_empty());
+        // Every byte value, NaN-pattern words included, comes back bit for bit.
+        let all: Vec<u8> = (0..=255).collect();
+        assert_eq!(bytes_from_words(&bytes_to_words(&all)).0, all);
+    }
 
     /// What every rank returns when the ranks own the node ranges starting at `starts`
     /// (ranks as threads of this process): the last rank's result, which all must share.
