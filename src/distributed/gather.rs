@@ -143,10 +143,32 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         let status: Vec<f64> = state.status.iter().map(|&b| b as f64).collect();
         let status = self.ranks.gather(&status);
         let history = self.ranks.gather(&state.history);
+        // A non-central model under a critical energy: each owned node's position and
+        // own-half matrices at the previous evaluation (every rank keeps them or none).
+        let nodes = state.u.len();
+        let previous: Vec<f64> = state.previous[..self.owned.min(state.previous.len())]
+            .iter()
+            .flat_map(|v| v.iter().copied())
+            .collect();
+        let previous = (!state.previous.is_empty()).then(|| self.ranks.gather(&previous));
+        let words = state.previous_matrices.len() / nodes.max(1);
+        let matrices = (words > 0).then(|| {
+            self.ranks
+                .gather(&state.previous_matrices[..self.owned * words])
+        });
         self.gather_nodes(state, &[])?;
         let root = self.root.as_mut()?;
         root.state.status = status?.into_iter().map(|b| b as u8).collect();
         root.state.history = history?;
+        if let Some(previous) = previous.flatten() {
+            root.state.previous = previous
+                .chunks_exact(D)
+                .map(Vector::<D>::from_column_slice)
+                .collect();
+        }
+        if let Some(matrices) = matrices.flatten() {
+            root.state.previous_matrices = matrices;
+        }
         Some(&root.state)
     }
 
