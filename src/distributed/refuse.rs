@@ -1,10 +1,10 @@
 //! What a distributed run does not do yet: refused at start, naming the feature, rather than
 //! run to a different answer.
 
-use crate::deck::build::MaterialChoice;
 use crate::deck::schema::Discretization;
 use crate::deck::solver_settings::solver_settings;
 use crate::deck::LoadedDeck;
+use crate::material::surface_correction::SurfaceCorrection;
 use crate::run::{DamageAndReports, RunControl, RunError};
 
 /// The refusal of `feature` on `ranks` ranks.
@@ -17,12 +17,6 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
 /// The first feature of the deck (or of the run's control) not yet distributed, if any.
 pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Result<(), RunError> {
     let deck = &ld.deck;
-    if !deck.materials.is_empty() || !deck.blocks.is_empty() {
-        return Err(refusal(
-            "several materials ([materials], [[blocks]])",
-            ranks,
-        ));
-    }
     // `distributed::restart` continues explicit runs; the quasi-static solver's memory of the
     // last equilibrium and a stage's start are not yet handed to the ranks from a checkpoint.
     let quasi_static = solver_settings(deck).quasi_static.is_some();
@@ -45,35 +39,18 @@ pub fn deck_refusal(ld: &LoadedDeck, control: &RunControl, ranks: usize) -> Resu
     }
 }
 
-/// Refuses the models and damage laws not yet distributed.
-pub fn constitution_refusal(
-    material: &MaterialChoice,
-    rest: &DamageAndReports,
-    ranks: usize,
-) -> Result<(), RunError> {
-    let model = match material {
-        MaterialChoice::Pmb(_) | MaterialChoice::Lps(_) => None,
-        MaterialChoice::Correspondence(_) => Some("the correspondence model"),
-        MaterialChoice::Mixed(_) => Some("several materials"),
-    };
-    if let Some(m) = model {
-        return Err(refusal(m, ranks));
-    }
-    if rest.surface.is_some() {
-        return Err(refusal(
-            "the surface correction (discretization.surface_correction)",
+/// Refuses the parts of the constitution not yet distributed.
+pub fn constitution_refusal(rest: &DamageAndReports, ranks: usize) -> Result<(), RunError> {
+    // Every model and damage law, several of them by block, and porosity run distributed;
+    // the surface correction's one-pass factors come from each node's family and are
+    // exchanged once, but the iterated method's sweeps read the neighbours' factors of the
+    // sweep before.
+    match &rest.surface {
+        Some(s) if s.method == SurfaceCorrection::EnergyIterated => Err(refusal(
+            "the iterated energy surface correction (discretization.surface_correction = \"energy_iterated\")",
             ranks,
-        ));
-    }
-    if !rest.porosity.is_empty() {
-        return Err(refusal("porosity (material.porosity)", ranks));
-    }
-    use crate::damage::Damage;
-    match &rest.damage {
-        // The laws decide a bond from its stretch or its pair work, the same bits at both
-        // ends once the ghosts' positions and point states are their owners'.
-        Damage::CriticalStretch(_) | Damage::CriticalEnergy(_) | Damage::Softening(_) => Ok(()),
-        Damage::Mixed(_) => Err(refusal("several damage laws", ranks)),
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -125,8 +102,8 @@ end_time = 1e-6
         let check = || -> Result<(), RunError> {
             deck_refusal(&ld, control, 2)?;
             let model = build_model::<2>(&ld).expect("a model");
-            let (material, rest) = build_constitution(&ld, &model).expect("laws").split();
-            constitution_refusal(&material, &rest, 2)
+            let (_, rest) = build_constitution(&ld, &model).expect("laws").split();
+            constitution_refusal(&rest, 2)
         };
         check().err().map(|e| e.to_string())
     }
@@ -153,6 +130,19 @@ end_time = 1e-6
                 "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
                 "",
             ),
+            (
+                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
+                "",
+            ),
+            // Porosity; several materials and damage laws by block.
+            (
+                "type = \"pmb\"\nporosity = { porosity = 0.05, critical_porosity = 1.0, seed = 1 }",
+                "",
+            ),
+            (
+                "type = \"pmb\"",
+                "[materials.disk]\ntype = \"correspondence\"\ndensity = 1000.0\nyoungs_modulus = 2e9\npoisson_ratio = 0.3\nfracture_energy = 100.0\ndamage = { type = \"critical_energy\" }\n[[blocks]]\nid = 1\nregion = { type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }\nmaterial = \"disk\"",
+            ),
         ] {
             assert_eq!(refused(&deck(material, extra), &fresh), None, "{material}");
             assert_eq!(
@@ -174,21 +164,24 @@ end_time = 1e-6
         }
         let stage = format!("[[stages]]\n[stages.solver]\n{explicit}");
         assert_eq!(refused(&deck("type = \"pmb\"", &stage), &fresh), None);
+        // The one-pass surface corrections.
+        for method in ["energy", "volume"] {
+            let corrected = format!("{LATTICE}\nsurface_correction = \"{method}\"");
+            let src = deck("type = \"pmb\"", "").replace(LATTICE, &corrected);
+            assert_eq!(refused(&src, &fresh), None, "{method}");
+        }
     }
 
     #[test]
     fn the_rest_is_refused_by_name() {
         let lps = "type = \"lps\"\npoisson_ratio = 0.3";
         let fresh = RunControl::default();
-        for (material, extra, control, name) in [
-            (
-                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
-                "",
-                &fresh,
-                "the correspondence model",
-            ),
-            (lps, "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }", &restart(), "a restart of a quasi-static or staged run"),
-        ] {
+        for (material, extra, control, name) in [(
+            lps,
+            "[[stages]]\nname = \"release\"\nsolver = { type = \"explicit\", steps = 10 }",
+            &restart(),
+            "a restart of a quasi-static or staged run",
+        )] {
             let message = refused(&deck(material, extra), control).expect("refused");
             assert!(
                 message.contains(name) && message.contains("not yet distributed"),
@@ -198,14 +191,21 @@ end_time = 1e-6
         let refined = format!(
             "{LATTICE}\nrefine = [{{ region = {{ type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }}, levels = 1 }}]"
         );
-        for (grid, name) in [
+        let iterated = format!("{LATTICE}\nsurface_correction = \"energy_iterated\"");
+        for (material, grid, name) in [
             (
+                lps,
                 "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3",
                 "a Gmsh grid",
             ),
-            (refined.as_str(), "a refined lattice"),
+            (lps, refined.as_str(), "a refined lattice"),
+            (
+                "type = \"pmb\"",
+                iterated.as_str(),
+                "the iterated energy surface correction",
+            ),
         ] {
-            let src = deck(lps, "").replace(LATTICE, grid);
+            let src = deck(material, "").replace(LATTICE, grid);
             let message = refused(&src, &fresh).expect("refused");
             assert!(message.contains(name), "{message}");
         }
