@@ -56,13 +56,15 @@ impl Bonds {
     pub const BYTES_PER_BOND: usize = 4 + 8 + 1;
 
     /// Index of the reverse bond (j → i) of bond `b` in node i's family, by binary search in
-    /// node j's sorted family.
+    /// node j's sorted family. A distributed run's rows are sorted by global index, which
+    /// its local indices do not follow where a row reaches ghosts of the ranks before
+    /// (`distributed::share`): there a miss of the search falls back to a scan of the row.
     pub fn reverse(&self, i: usize, b: usize) -> Option<usize> {
         let j = self.neighbors[b] as usize;
         let r = self.family(j);
-        self.neighbors[r.clone()]
-            .binary_search(&(i as u32))
-            .ok()
+        let row = &self.neighbors[r.clone()];
+        let k = row.binary_search(&(i as u32)).ok();
+        k.or_else(|| row.iter().position(|&n| n as usize == i))
             .map(|k| r.start + k)
     }
 }

@@ -992,6 +992,11 @@ pub fn build_constitution<const D: usize>(
         // discretization's horizon when some of them have it, else the smallest of theirs (not
         // the horizon of whichever node comes first: a deck's `micromodulus` is given at it).
         let mut used: Vec<usize> = nodes.iter().map(|&i| class[i]).collect();
+        if used.is_empty() {
+            // A rank of a distributed run whose nodes are all of other materials (one
+            // horizon there: the one class).
+            used = (0..distinct.len()).collect();
+        }
         used.sort_unstable();
         used.dedup();
         let reference = used

@@ -215,6 +215,19 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         // the ranks' rows follow each other in the global order.
         let status = self.ranks.gather(&bytes_to_words(&state.status));
         let history = self.ranks.gather(&state.history);
+        // A non-central model under a critical energy: each owned node's position and
+        // own-half matrices at the previous evaluation (every rank keeps them or none).
+        let nodes = state.u.len();
+        let previous: Vec<f64> = state.previous[..self.owned.min(state.previous.len())]
+            .iter()
+            .flat_map(|v| v.iter().copied())
+            .collect();
+        let previous = (!state.previous.is_empty()).then(|| self.ranks.gather(&previous));
+        let words = state.previous_matrices.len() / nodes.max(1);
+        let matrices = (words > 0).then(|| {
+            self.ranks
+                .gather(&state.previous_matrices[..self.owned * words])
+        });
         self.gather_nodes(state, &[])?;
         let root = self.root.as_mut()?;
         // Every rank's packed status in rank order.
@@ -226,6 +239,15 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         }
         root.state.status = whole;
         root.state.history = history?;
+        if let Some(previous) = previous.flatten() {
+            root.state.previous = previous
+                .chunks_exact(D)
+                .map(Vector::<D>::from_column_slice)
+                .collect();
+        }
+        if let Some(matrices) = matrices.flatten() {
+            root.state.previous_matrices = matrices;
+        }
         Some(&root.state)
     }
 

@@ -17,7 +17,8 @@ pub struct RankPlan {
     /// Directed bonds of the owned families.
     pub bonds: usize,
     /// Bytes the rank sends each step (u, v, y of the nodes its peers have as ghosts, and
-    /// their dilatation θ under LPS).
+    /// the point state their neighbours read: θ under LPS, B, C1 and the moment record
+    /// under the correspondence model).
     pub halo_bytes: usize,
     /// Owned and ghost nodes at the largest model's bytes per node, plus the bonds.
     pub memory_bytes: usize,
@@ -39,13 +40,30 @@ impl std::fmt::Display for RankPlan {
     }
 }
 
+/// `Material::HALO_WORDS` of the model the deck builds: none for PMB, θ for LPS and for
+/// several central materials, B, C1 and the moment record for the correspondence model, and
+/// both for several materials with a correspondence block.
+fn point_words<const D: usize>(ld: &LoadedDeck) -> usize {
+    use crate::material::{Correspondence, Lps, Material};
+    let models = || std::iter::once(&ld.deck.material).chain(ld.deck.materials.values());
+    let correspondence = models().any(|m| matches!(m, MaterialDeck::Correspondence { .. }));
+    let lps = <Lps as Material<D>>::HALO_WORDS;
+    let tensors = <Correspondence as Material<D>>::HALO_WORDS;
+    match (ld.deck.materials.is_empty(), &ld.deck.material) {
+        (true, MaterialDeck::Pmb { .. }) => 0,
+        (true, MaterialDeck::Lps { .. }) => lps,
+        (true, _) => tensors,
+        (false, _) if correspondence => lps + tensors,
+        (false, _) => lps,
+    }
+}
+
 /// The shares of `ranks` ranks. Each rank's families are searched in turn (one at a time in
 /// memory); the halo a rank sends is what the others have of it as ghosts.
 pub fn plan<const D: usize>(ld: &LoadedDeck, ranks: usize) -> Result<Vec<RankPlan>, DeckError> {
     let mut plans = Vec::new();
     // Words per halo node and step: u, v, y, and the point state a neighbour's half reads.
-    let theta = matches!(ld.deck.material, MaterialDeck::Lps { .. }) as usize;
-    let words = 3 * D + theta;
+    let words = 3 * D + point_words::<D>(ld);
     build_model_with::<D>(ld, |body, families| {
         let weights = bond_weights(&body, families.rule);
         let Some(ranges) = ranges(&weights, ranks) else {

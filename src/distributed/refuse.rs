@@ -1,9 +1,8 @@
 //! What a distributed run does not do yet: refused at start, naming the feature, rather than
 //! run to a different answer.
 
-use crate::deck::build::MaterialChoice;
-use crate::deck::LoadedDeck;
-use crate::run::{DamageAndReports, RunControl, RunError};
+use crate::material::surface_correction::SurfaceCorrection;
+use crate::run::{DamageAndReports, RunError};
 
 /// The refusal of `feature` on `ranks` ranks.
 pub fn refusal(feature: &str, ranks: usize) -> RunError {
@@ -12,51 +11,21 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
     ))
 }
 
-/// The first feature of the deck not yet distributed, if any (the run's control, a restart
-/// included, is distributed whole).
-pub fn deck_refusal(ld: &LoadedDeck, _control: &RunControl, ranks: usize) -> Result<(), RunError> {
-    let deck = &ld.deck;
-    if !deck.materials.is_empty() || !deck.blocks.is_empty() {
-        return Err(refusal(
-            "several materials ([materials], [[blocks]])",
+/// Refuses the parts of the constitution not yet distributed.
+pub fn constitution_refusal(rest: &DamageAndReports, ranks: usize) -> Result<(), RunError> {
+    // Every deck feature, model and damage law (several of them by block), grid, solver,
+    // observer and restart runs distributed (a restart of a non-central model under a
+    // critical energy is refused when the checkpoint is read: `distributed::restart`), and
+    // porosity;
+    // the surface correction's one-pass factors come from each node's family and are
+    // exchanged once, but the iterated method's sweeps read the neighbours' factors of the
+    // sweep before.
+    match &rest.surface {
+        Some(s) if s.method == SurfaceCorrection::EnergyIterated => Err(refusal(
+            "the iterated energy surface correction (discretization.surface_correction = \"energy_iterated\")",
             ranks,
-        ));
-    }
-    // Every grid is distributed: lattices (refined or not, with pores), NB-NUG grids, free
-    // meshes, Gmsh meshes and point clouds; the grid's uniformity is agreed over the whole
-    // body (`solver::ranks::agreed_uniform`).
-    Ok(())
-}
-
-/// Refuses the models and damage laws not yet distributed.
-pub fn constitution_refusal(
-    material: &MaterialChoice,
-    rest: &DamageAndReports,
-    ranks: usize,
-) -> Result<(), RunError> {
-    let model = match material {
-        MaterialChoice::Pmb(_) | MaterialChoice::Lps(_) => None,
-        MaterialChoice::Correspondence(_) => Some("the correspondence model"),
-        MaterialChoice::Mixed(_) => Some("several materials"),
-    };
-    if let Some(m) = model {
-        return Err(refusal(m, ranks));
-    }
-    if rest.surface.is_some() {
-        return Err(refusal(
-            "the surface correction (discretization.surface_correction)",
-            ranks,
-        ));
-    }
-    if !rest.porosity.is_empty() {
-        return Err(refusal("porosity (material.porosity)", ranks));
-    }
-    use crate::damage::Damage;
-    match &rest.damage {
-        // The laws decide a bond from its stretch or its pair work, the same bits at both
-        // ends once the ghosts' positions and point states are their owners'.
-        Damage::CriticalStretch(_) | Damage::CriticalEnergy(_) | Damage::Softening(_) => Ok(()),
-        Damage::Mixed(_) => Err(refusal("several damage laws", ranks)),
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -64,6 +33,7 @@ pub fn constitution_refusal(
 mod tests {
     use super::*;
     use crate::deck::build::{build_constitution, build_model};
+    use crate::deck::LoadedDeck;
     use std::path::Path;
 
     /// The plate's lattice (the `[discretization]` lines).
@@ -94,29 +64,16 @@ end_time = 1e-6
         )
     }
 
-    /// A run continued from its checkpoint.
-    fn restart() -> RunControl {
-        RunControl {
-            restart: true,
-            ..RunControl::default()
-        }
-    }
-
     /// What a run of `src` on 2 ranks refuses, if anything.
-    fn refused(src: &str, control: &RunControl) -> Option<String> {
+    fn refused(src: &str) -> Option<String> {
         let ld = LoadedDeck::from_str(src, Path::new("t.toml")).expect("a valid deck");
-        let check = || -> Result<(), RunError> {
-            deck_refusal(&ld, control, 2)?;
-            let model = build_model::<2>(&ld).expect("a model");
-            let (material, rest) = build_constitution(&ld, &model).expect("laws").split();
-            constitution_refusal(&material, &rest, 2)
-        };
-        check().err().map(|e| e.to_string())
+        let model = build_model::<2>(&ld).expect("a model");
+        let (_, rest) = build_constitution(&ld, &model).expect("laws").split();
+        constitution_refusal(&rest, 2).err().map(|e| e.to_string())
     }
 
     #[test]
     fn distributed_models_laws_and_solvers_run() {
-        let fresh = RunControl::default();
         for (material, extra) in [
             ("type = \"pmb\"", ""),
             (
@@ -136,48 +93,56 @@ end_time = 1e-6
                 "type = \"lps\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
                 "",
             ),
+            (
+                "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }",
+                "",
+            ),
+            // Porosity; several materials and damage laws by block.
+            (
+                "type = \"pmb\"\nporosity = { porosity = 0.05, critical_porosity = 1.0, seed = 1 }",
+                "",
+            ),
+            (
+                "type = \"pmb\"",
+                "[materials.disk]\ntype = \"correspondence\"\ndensity = 1000.0\nyoungs_modulus = 2e9\npoisson_ratio = 0.3\nfracture_energy = 100.0\ndamage = { type = \"critical_energy\" }\n[[blocks]]\nid = 1\nregion = { type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }\nmaterial = \"disk\"",
+            ),
         ] {
-            assert_eq!(refused(&deck(material, extra), &fresh), None, "{material}");
-            assert_eq!(
-                refused(&deck(material, extra), &restart()),
-                None,
-                "{material}"
-            );
+            assert_eq!(refused(&deck(material, extra)), None, "{material}");
         }
         let nbnug = "type = \"nbnug\"\nshape = { type = \"rectangle\", min = [0.0, 0.0], max = [4e-3, 2e-3] }\nsize = 0.25e-3\nhorizon_ratio = 3.0\npores = { count = 1, radius = [3e-4, 3e-4], seed = 1 }";
-        let src = deck("type = \"pmb\"", "").replace(LATTICE, nbnug);
-        assert_eq!(refused(&src, &fresh), None);
-        // A Gmsh mesh (its file is read when the model is built, after this check).
-        let gmsh = "type = \"gmsh\"\nfile = \"plate.msh\"\nhorizon = 1e-3";
-        let src = deck("type = \"pmb\"", "").replace(LATTICE, gmsh);
-        let ld = LoadedDeck::from_str(&src, Path::new("t.toml")).expect("a valid deck");
-        assert!(deck_refusal(&ld, &fresh, 2).is_ok());
+        let refined = format!(
+            "{LATTICE}\nrefine = [{{ region = {{ type = \"disk\", center = [2e-3, 1e-3], radius = 5e-4 }}, levels = 1 }}]"
+        );
+        for grid in [nbnug, refined.as_str()] {
+            let src = deck("type = \"pmb\"", "").replace(LATTICE, grid);
+            assert_eq!(refused(&src), None, "{grid}");
+        }
         // The quasi-static solvers, and a staged run.
         let explicit = "type = \"explicit\"\nend_time = 1e-6";
         for method in ["adr", "ncg"] {
             let quasi_static =
                 format!("type = \"quasi_static\"\nload_steps = 2\nmethod = \"{method}\"");
             let src = deck("type = \"pmb\"", "").replace(explicit, &quasi_static);
-            assert_eq!(refused(&src, &fresh), None, "{method}");
+            assert_eq!(refused(&src), None, "{method}");
         }
         let stage = format!("[[stages]]\n[stages.solver]\n{explicit}");
-        assert_eq!(refused(&deck("type = \"pmb\"", &stage), &fresh), None);
-        // Their restarts too.
-        let quasi_static = "type = \"quasi_static\"\nload_steps = 2";
-        let src = deck("type = \"pmb\"", "").replace(explicit, quasi_static);
-        assert_eq!(refused(&src, &restart()), None);
-        assert_eq!(refused(&deck("type = \"pmb\"", &stage), &restart()), None);
+        assert_eq!(refused(&deck("type = \"pmb\"", &stage)), None);
+        // The one-pass surface corrections.
+        for method in ["energy", "volume"] {
+            let corrected = format!("{LATTICE}\nsurface_correction = \"{method}\"");
+            let src = deck("type = \"pmb\"", "").replace(LATTICE, &corrected);
+            assert_eq!(refused(&src), None, "{method}");
+        }
     }
 
     #[test]
     fn the_rest_is_refused_by_name() {
-        let lps = "type = \"lps\"\npoisson_ratio = 0.3";
-        let fresh = RunControl::default();
-        let correspondence =
-            "type = \"correspondence\"\npoisson_ratio = 0.3\ndamage = { type = \"critical_energy\" }";
-        let message = refused(&deck(correspondence, ""), &fresh).expect("refused");
+        let iterated = format!("{LATTICE}\nsurface_correction = \"energy_iterated\"");
+        let src = deck("type = \"pmb\"", "").replace(LATTICE, &iterated);
+        let message = refused(&src).expect("refused");
         assert!(
-            message.contains("the correspondence model") && message.contains("not yet distributed"),
+            message.contains("the iterated energy surface correction")
+                && message.contains("not yet distributed"),
             "{message}"
         );
     }

@@ -5,10 +5,12 @@
 
 use super::gather::{Gather, PieceWriter};
 use super::partition::{bond_weights, ranges};
-use super::refuse::{constitution_refusal, deck_refusal};
+use super::refuse::constitution_refusal;
 use super::share::split;
 use crate::body::Body;
-use crate::deck::build::{build_constitution, build_model_with, MaterialChoice, Model, Part};
+use crate::deck::build::{
+    build_constitution, build_model_with, Constitution, MaterialChoice, Model, Part,
+};
 use crate::deck::schema::Pieces;
 use crate::deck::solver_settings::solver_settings;
 use crate::deck::LoadedDeck;
@@ -34,7 +36,6 @@ pub fn run_with(
     control: &RunControl,
     ranks: Arc<dyn Ranks>,
 ) -> Result<RunSummary, RunError> {
-    deck_refusal(ld, control, ranks.size())?;
     with_threads(opts.threads, || match ld.deck.dimension {
         2 => run_dim::<2>(ld, opts, control, ranks),
         _ => run_dim::<3>(ld, opts, control, ranks),
@@ -81,13 +82,44 @@ fn run_dim<const D: usize>(
         })
     })?;
     let built = built.expect("the share was built");
-    let c = build_constitution(ld, &model)?;
+    let mut c = build_constitution(ld, &model)?;
+    whole_constitution_reports(&mut c, &model, built.owned, &*ranks);
     let (material, rest) = c.split();
-    constitution_refusal(&material, &rest, size)?;
+    constitution_refusal(&rest, size)?;
+    let run = (opts, control);
     match material {
-        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
-        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, (opts, control), built, ranks),
-        _ => unreachable!("refused above"),
+        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, run, built, ranks),
+        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, run, built, ranks),
+        MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, run, built, ranks),
+        // PMB and LPS blocks only: the scalar path.
+        MaterialChoice::Mixed(m) => match m.into_central() {
+            Ok(m) => run_model(ld, model, m, rest, run, built, ranks),
+            Err(m) => run_model(ld, model, m, rest, run, built, ranks),
+        },
+    }
+}
+
+/// The constitution's reports of the whole body from a rank's share: each material's node
+/// count, and the range of the surface correction's factors, over every rank's owned nodes
+/// (a ghost's factor here comes from its empty row; its owner's replaces it in the model,
+/// `Material::share_constants`).
+fn whole_constitution_reports<const D: usize>(
+    c: &mut Constitution,
+    model: &Model<D>,
+    owned: usize,
+    ranks: &dyn Ranks,
+) {
+    for (k, report) in c.reports.iter_mut().enumerate() {
+        let mine = model.material_of[..owned]
+            .iter()
+            .filter(|&&m| m as usize == k)
+            .count();
+        report.nodes = ranks.sum_u64(mine as u64) as usize;
+    }
+    if let Some(s) = &mut c.surface {
+        let mine = &s.factors[..owned];
+        s.report.min = ranks.min_f64(mine.iter().copied().fold(f64::INFINITY, f64::min));
+        s.report.max = ranks.max_f64(mine.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     }
 }
 
@@ -250,9 +282,6 @@ fn whole_report<const D: usize, M: Material<D>>(
     report.memory_bytes = nodes
         * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>() + M::NODE_BYTES)
         + directed * report.bytes_per_bond;
-    for m in &mut report.materials {
-        m.nodes = nodes;
-    }
     if let Some(g) = grid {
         report.grid = g;
     }

@@ -31,6 +31,7 @@ use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
 use crate::math::{determinant, extent_middle, inverse, Vector};
 use crate::per_node::PerNode;
+use crate::solver::ranks::Share;
 use nalgebra::{SMatrix, SVector};
 
 /// The symmetric D×D matrix of a lower triangle given in the order of `lower`.
@@ -399,6 +400,14 @@ impl Correspondence {
         m
     }
 
+    /// The reference positions `setup` kept, as vectors.
+    fn reference_points<const D: usize>(&self) -> Vec<Vector<D>> {
+        self.reference
+            .chunks_exact(D)
+            .map(Vector::<D>::from_column_slice)
+            .collect()
+    }
+
     /// Node i's reference position less the origin o, x̂ = x − o.
     fn x_hat<const D: usize>(&self, i: usize) -> Vector<D> {
         Vector::<D>::from_fn(|a, _| self.reference[D * i + a] - self.origin[a])
@@ -500,12 +509,14 @@ impl<const D: usize> Material<D> for Correspondence {
     const NODE_MATRIX_WORDS: usize = 2 * D * D;
     const NODE_BYTES: usize = super::stabilisation_memo::SLOT_BYTES;
 
-    /// Checks every shape tensor with all bonds intact.
+    /// Checks every owned node's shape tensor with all bonds intact (a ghost's row is
+    /// empty: its owner checks it).
     fn setup(
         &mut self,
         body: &Body<D>,
         bonds: &Bonds,
         quad: &Quadrature,
+        owned: usize,
     ) -> Result<(), PointError> {
         self.reference = body
             .positions
@@ -520,7 +531,43 @@ impl<const D: usize> Material<D> for Correspondence {
             }
         });
         self.memo = StabilisationMemo::new(body.len());
-        self.check_shape_tensors(body, bonds, quad, |_| true)
+        self.check_shape_tensors(body, bonds, quad, |i| i < owned)
+    }
+
+    /// The origin o is the middle of the whole body's extent, as one process takes it: a
+    /// rank's positions (its owned nodes and ghosts) lie inside it, so the smallest and
+    /// largest coordinate over the ranks are the whole body's.
+    fn share_constants(&mut self, share: &Share) {
+        let ranks = &*share.ranks;
+        let points = self.reference_points::<D>();
+        for (a, origin) in self.origin.iter_mut().enumerate().take(D) {
+            let [lo, hi] = crate::math::extent(&points, a);
+            let (lo, hi) = (ranks.min_f64(lo), ranks.max_f64(hi));
+            *origin = if lo <= hi { 0.5 * (lo + hi) } else { 0.0 };
+        }
+    }
+
+    /// What a bond's other half reads of its neighbour j, which a distributed run sends
+    /// from j's owner in every evaluation: B and C1 (the generic loops' `other_half` and
+    /// `pair_force`, the stabilisation sums of the vector force pass) and the moment record
+    /// (B, g, u and the version of C1: the vector force pass). K⁻¹, H and Σ s ξ are read by
+    /// j's own passes only.
+    const HALO_WORDS: usize = 2 * D * D + simd_correspondence::moment_words(D);
+
+    #[inline(always)]
+    fn point_words(p: &Self::Point, out: &mut Vec<f64>) {
+        out.extend_from_slice(p.b.as_slice());
+        out.extend_from_slice(p.c1.as_slice());
+        out.extend_from_slice(&p.moments[..simd_correspondence::moment_words(D)]);
+    }
+
+    #[inline(always)]
+    fn point_from_words(p: &mut Self::Point, words: &[f64]) {
+        let (b, rest) = words.split_at(D * D);
+        let (c1, moments) = rest.split_at(D * D);
+        p.b = SMatrix::from_column_slice(b);
+        p.c1 = SMatrix::from_column_slice(c1);
+        p.moments[..moments.len()].copy_from_slice(moments);
     }
 
     /// K += ω ξ⊗ξ w (Eq. 7) and N += ω η⊗ξ w (η = Y − ξ; Eq. 6 less K), kept in `b` and `h`

@@ -10,6 +10,7 @@ use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
 use crate::per_node::PerNode;
+use crate::solver::ranks::Share;
 
 /// Per-node state of the pre-pass: the dilatation θ (before: the weighted sum Σ ω|ξ| e w).
 /// Transparent, so a slice of points is a slice of θ for the vector kernel.
@@ -174,6 +175,7 @@ impl<const D: usize> Material<D> for Lps {
         body: &Body<D>,
         bonds: &Bonds,
         quad: &Quadrature,
+        _owned: usize,
     ) -> Result<(), PointError> {
         let m = (0..body.len())
             .map(|i| {
@@ -204,9 +206,9 @@ impl<const D: usize> Material<D> for Lps {
     }
 
     /// A ghost's m is its owner's (its family is there).
-    fn share_constants(&mut self, exchange: &mut dyn FnMut(&mut [f64])) {
+    fn share_constants(&mut self, share: &Share) {
         let mut m = std::mem::take(&mut self.m);
-        exchange(&mut m);
+        share.halo.exchange_values(&*share.ranks, &mut m);
         self.set_m(m);
     }
 

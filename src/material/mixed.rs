@@ -13,6 +13,7 @@ use super::{BondGeom, Correspondence, Elasticity, Lps, Material, Pmb, PointError
 use crate::body::Body;
 use crate::bonds::{Bonds, Quadrature};
 use crate::math::Vector;
+use crate::solver::ranks::Share;
 
 /// The material of one block.
 #[derive(Debug, Clone)]
@@ -79,18 +80,49 @@ impl<const D: usize> Material<D> for Mixed {
     const CENTRAL: bool = false;
     const NEEDS_XI: bool = true;
 
+    /// Whatever a neighbour's half reads of either state-based material (LPS's θ, the
+    /// correspondence model's B, C1 and moment record), whichever the ghost's block.
+    const HALO_WORDS: usize =
+        <Lps as Material<D>>::HALO_WORDS + <Correspondence as Material<D>>::HALO_WORDS;
+
+    #[inline(always)]
+    fn point_words(p: &Self::Point, out: &mut Vec<f64>) {
+        <Lps as Material<D>>::point_words(&p.lps, out);
+        <Correspondence as Material<D>>::point_words(&p.correspondence, out);
+    }
+
+    #[inline(always)]
+    fn point_from_words(p: &mut Self::Point, words: &[f64]) {
+        let (lps, correspondence) = words.split_at(<Lps as Material<D>>::HALO_WORDS);
+        <Lps as Material<D>>::point_from_words(&mut p.lps, lps);
+        <Correspondence as Material<D>>::point_from_words(&mut p.correspondence, correspondence);
+    }
+
+    /// Each block's constants (LPS's m of every node, a ghost's its owner's); every rank
+    /// has the same blocks, so the exchanges match.
+    fn share_constants(&mut self, share: &Share) {
+        for m in &mut self.materials {
+            match m {
+                BlockMaterial::Pmb(m) => Material::<D>::share_constants(m, share),
+                BlockMaterial::Lps(m) => Material::<D>::share_constants(m, share),
+                BlockMaterial::Correspondence(m) => Material::<D>::share_constants(m, share),
+            }
+        }
+    }
+
     fn setup(
         &mut self,
         body: &Body<D>,
         bonds: &Bonds,
         quad: &Quadrature,
+        owned: usize,
     ) -> Result<(), PointError> {
         let owners = self.material_of.clone();
         for (k, m) in self.materials.iter_mut().enumerate() {
-            let member = |i: usize| owners[i] as usize == k;
+            let member = |i: usize| i < owned && owners[i] as usize == k;
             match m {
                 BlockMaterial::Pmb(_) => {}
-                BlockMaterial::Lps(m) => Material::<D>::setup(m, body, bonds, quad)?,
+                BlockMaterial::Lps(m) => Material::<D>::setup(m, body, bonds, quad, owned)?,
                 BlockMaterial::Correspondence(m) => {
                     m.check_shape_tensors(body, bonds, quad, member)?
                 }

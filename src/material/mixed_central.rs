@@ -9,6 +9,7 @@ use super::mixed::{BlockMaterial, Mixed};
 use super::{BondGeom, Elasticity, Lps, Material, Pmb, PointError};
 use crate::body::Body;
 use crate::bonds::{Bonds, Quadrature};
+use crate::solver::ranks::Share;
 
 /// The material of one central block.
 #[derive(Debug, Clone)]
@@ -61,15 +62,39 @@ impl<const D: usize> Material<D> for MixedCentral {
     type Point = LpsPoint;
     const NEEDS_PREPASS: bool = true;
 
+    /// A PMB node's point state is unused: θ, as for LPS.
+    const HALO_WORDS: usize = <Lps as Material<D>>::HALO_WORDS;
+
+    #[inline(always)]
+    fn point_words(p: &LpsPoint, out: &mut Vec<f64>) {
+        <Lps as Material<D>>::point_words(p, out);
+    }
+
+    #[inline(always)]
+    fn point_from_words(p: &mut LpsPoint, words: &[f64]) {
+        <Lps as Material<D>>::point_from_words(p, words);
+    }
+
+    /// Each block's constants (LPS's m of every node, a ghost's its owner's).
+    fn share_constants(&mut self, share: &Share) {
+        for m in &mut self.materials {
+            match m {
+                CentralBlock::Pmb(m) => Material::<D>::share_constants(m, share),
+                CentralBlock::Lps(m) => Material::<D>::share_constants(m, share),
+            }
+        }
+    }
+
     fn setup(
         &mut self,
         body: &Body<D>,
         bonds: &Bonds,
         quad: &Quadrature,
+        owned: usize,
     ) -> Result<(), PointError> {
         for m in &mut self.materials {
             if let CentralBlock::Lps(m) = m {
-                Material::<D>::setup(m, body, bonds, quad)?;
+                Material::<D>::setup(m, body, bonds, quad, owned)?;
             }
         }
         Ok(())

@@ -34,6 +34,7 @@ use crate::body::Body;
 use crate::bonds::partial_volume::UniformWeights;
 use crate::bonds::{Bonds, Quadrature};
 use crate::math::Vector;
+use crate::solver::ranks::Share;
 use simd::NodeBonds;
 
 /// Geometry of one directed bond i→j at the current configuration, with the state of its two
@@ -186,18 +187,22 @@ pub trait Material<const D: usize>: Sync + Send {
     fn point_from_words(_p: &mut Self::Point, _words: &[f64]) {}
 
     /// A distributed run: `setup`'s per-node constants of the ghosts (computed here from
-    /// their empty rows) replaced by their owners', each array through `exchange`, which sets
-    /// the ghosts' entries of a per-node array.
-    fn share_constants(&mut self, _exchange: &mut dyn FnMut(&mut [f64])) {}
+    /// their empty rows) replaced by their owners' (`Halo::exchange_values` sets the ghosts'
+    /// entries of a per-node array), and any constant of the whole body agreed over the
+    /// ranks.
+    fn share_constants(&mut self, _share: &Share) {}
 
     /// Per-node constants that depend on the families (LPS weighted volume m); called once
-    /// before the run, with all bonds intact. Fails, naming the node, when a node cannot be
-    /// evaluated (e.g. a singular shape tensor).
+    /// before the run, with all bonds intact. Nodes below `owned` have their rows in `bonds`;
+    /// a distributed run's ghosts follow with empty rows (`share_constants` gives them their
+    /// owners' constants). Fails, naming the node, when an owned node cannot be evaluated
+    /// (e.g. a singular shape tensor).
     fn setup(
         &mut self,
         _body: &Body<D>,
         _bonds: &Bonds,
         _quad: &Quadrature,
+        _owned: usize,
     ) -> Result<(), PointError> {
         Ok(())
     }

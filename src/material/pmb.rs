@@ -7,6 +7,7 @@ use super::{simd_damage, simd_energy};
 use super::{BondGeom, Dimensionality, Elasticity, Material};
 use crate::bonds::partial_volume::UniformWeights;
 use crate::per_node::PerNode;
+use crate::solver::ranks::Share;
 use serde::{Deserialize, Serialize};
 
 /// Shape of the micromodulus along the bond, c(ξ) = c0 · g(ξ).
@@ -228,6 +229,25 @@ impl Pmb {
 impl<const D: usize> Material<D> for Pmb {
     type Point = ();
     const NEEDS_PREPASS: bool = false;
+
+    /// A ghost's micromodulus is its owner's (a surface correction's factor comes from the
+    /// node's family, which is on its owner), and the ranks agree on whether it varies (the
+    /// bond weight's form and the vector kernel depend on it): a rank whose nodes all have
+    /// one value keeps them one by one when another rank's vary, as one process does.
+    fn share_constants(&mut self, share: &Share) {
+        let ranks = &*share.ranks;
+        let varying = matches!(self.c0, PerNode::Varying(_));
+        if ranks.max_f64(f64::from(u8::from(varying))) == 0.0 {
+            return;
+        }
+        let nodes = share.owned + share.halo.ghosts();
+        let mut c0 = match &self.c0 {
+            PerNode::Uniform(c) => vec![*c; nodes],
+            PerNode::Varying(c) => c.clone(),
+        };
+        share.halo.exchange_values(ranks, &mut c0);
+        self.c0 = PerNode::Varying(c0);
+    }
     /// f = c(ξ) ½(φ_ij + φ_ji) e/|ξ| along the bond (seed 001 Eq. 4), c(ξ) and φ fixed.
     const LINEAR_BOND: bool = true;
 

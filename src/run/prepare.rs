@@ -9,6 +9,7 @@ use crate::deck::stages::{stage_name, StageReport};
 use crate::deck::{DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
+use crate::solver::cross_bonds::CrossBonds;
 use crate::solver::Simulation;
 use std::time::Instant;
 
@@ -87,8 +88,18 @@ pub fn prepare_shared<const D: usize, M: Material<D>>(
         share,
     )
     .map_err(|e| ld.locate(vec![DeckIssue::new("material", e.to_string())]))?;
+    // A distributed run pairs the entries of its bonds across ranks (`CrossBonds`).
+    let cross = match (&sim.share, porosity.is_empty()) {
+        (Some(share), false) => Some((share.clone(), CrossBonds::new(&sim.bonds, share))),
+        _ => None,
+    };
     for (k, p) in &porosity {
-        let n = p.prebreak(&sim.bonds, |i| material_of[i] == *k, &mut sim.state.status);
+        let member = |i: usize| material_of[i] == *k;
+        let status = &mut sim.state.status;
+        let n = match &cross {
+            Some((share, cross)) => p.prebreak_shared(&sim.bonds, member, status, share, cross),
+            None => p.prebreak(&sim.bonds, member, status),
+        };
         reports[*k as usize].prebroken_bonds = Some(n);
     }
     if !porosity.is_empty() {

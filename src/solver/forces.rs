@@ -6,6 +6,7 @@
 //! (i→j in i's row, j→i in j's) are updated by their own rows from the same numbers, so they
 //! always agree.
 
+use super::cross_bonds::{CrossBonds, RemoteWords};
 use super::dissipation::DissipationTracker;
 use super::ranks::{ordered_sum, Share};
 use crate::body::Body;
@@ -49,6 +50,8 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
     /// come from their owners, the halves broken and the energy released are summed over
     /// every rank.
     pub share: Option<std::sync::Arc<Share>>,
+    /// A distributed run's bonds across ranks, paired when a law first reads both entries.
+    cross_bonds: std::sync::OnceLock<CrossBonds>,
 }
 
 /// Where the bond loop gets quadrature weights: per node in general, from constants on a
@@ -279,18 +282,20 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         rule: PartialVolume,
     ) -> Result<Self, PointError> {
         let quad = Quadrature::for_body(rule, body, bonds);
-        Self::with_quadrature(material, damage, body, bonds, quad)
+        Self::with_quadrature(material, damage, body, bonds, quad, body.len())
     }
 
-    /// `new` with the bonds' quadrature given.
+    /// `new` with the bonds' quadrature given; nodes from `owned` on are a distributed run's
+    /// ghosts (no rows).
     pub fn with_quadrature(
         mut material: M,
         damage: Damage,
         body: &Body<D>,
         bonds: &Bonds,
         quad: Quadrature,
+        owned: usize,
     ) -> Result<Self, PointError> {
-        material.setup(body, bonds, &quad)?;
+        material.setup(body, bonds, &quad, owned)?;
         let n = body.len();
         let chunks = (0..n)
             .step_by(NODE_CHUNK)
@@ -309,6 +314,7 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             broke_in_chunk: Vec::new(),
             mid_step: Vec::new(),
             share: None,
+            cross_bonds: Default::default(),
         })
     }
 
@@ -780,6 +786,11 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     /// reaches w_c (kept for one more evaluation, the separation work of
     /// `tests/suite/separation_work.rs` rose from 1.03 to 1.05 G0 in 3D). Returns the
     /// entries broken per chunk.
+    ///
+    /// A distributed run decides the bonds of its owned nodes in the same order, the turns
+    /// of the ghosts included: a bond to a ghost k takes the word of k's entry from k's
+    /// owner (`CrossBonds`), at k's turn if k's entry may fail and k comes first, and only
+    /// the owned end's entry, count and force density change on this rank.
     fn resolve_split_work<W: Weights, Dm: DamageLaw>(
         &self,
         weights: &W,
@@ -790,47 +801,88 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         flagged: impl Iterator<Item = Vec<usize>>,
     ) -> Vec<u64> {
         let mut broke = vec![0u64; self.chunks.len()];
-        for i in flagged.flatten() {
-            for e in bonds.family(i) {
-                let (j, ref_len) = (bonds.neighbors[e] as usize, bonds.ref_lengths[e]);
-                let (phi_ij, phi_ji, vol_j) = weights.weights(e, i, j, ref_len);
-                let weight = 0.5 * (phi_ij + phi_ji);
-                if state.status[e] != INTACT
-                    || !may_fail(damage, i, state.history[e], weight)
-                    || body.no_fail[i]
-                    || body.no_fail[j]
-                {
-                    continue;
-                }
-                let reverse = bonds
+        let owned = self.share.as_ref().map_or(body.len(), |s| s.owned);
+        // In node order (chunks in order, nodes in order in each).
+        let flagged: Vec<usize> = flagged.flatten().collect();
+        let remote = match &self.share {
+            Some(s) => self
+                .cross_bonds
+                .get_or_init(|| CrossBonds::new(bonds, s))
+                .exchange(
+                    &*s.ranks,
+                    &s.halo.peers,
+                    bonds,
+                    (&state.history, 1),
+                    &flagged,
+                ),
+            None => RemoteWords::default(),
+        };
+        let mut resolve = |i: usize, e: usize, other: Option<f64>, ghost_turn: bool| {
+            let (j, ref_len) = (bonds.neighbors[e] as usize, bonds.ref_lengths[e]);
+            let (phi_ij, phi_ji, vol_j) = weights.weights(e, i, j, ref_len);
+            let weight = 0.5 * (phi_ij + phi_ji);
+            let reverse = (j < owned).then(|| {
+                bonds
                     .reverse(i, e)
-                    .expect("every bond is stored at both ends");
-                let work = state.history[e] + state.history[reverse];
-                let y = state.current[j] - state.current[i];
-                let len = y.norm();
-                if damage.fails_on_work(i, len - ref_len, weight, work) {
-                    state.status[e] = BROKEN;
-                    state.status[reverse] = BROKEN;
-                    broke[i / NODE_CHUNK] += 1;
-                    broke[j / NODE_CHUNK] += 1;
-                    let (_, _, vol_i) = weights.weights(reverse, j, i, ref_len);
-                    let geom = BondGeom {
-                        ref_len,
-                        len,
-                        phi_ij,
-                        phi_ji,
-                        vol_j,
-                        mu_ij: 1.0,
-                        mu_ji: 1.0,
-                        y,
-                        xi: body.positions[j] - body.positions[i],
-                    };
-                    let (pi, pj) = (&self.points[i], &self.points[j]);
-                    let pair = self.material.pair_force(i, j, &geom, pi, pj);
-                    state.force[i] -= pair * vol_j;
-                    state.force[j] += pair * vol_i;
-                }
+                    .expect("every bond is stored at both ends")
+            });
+            let other = other.unwrap_or_else(|| state.history[reverse.expect("an owned end")]);
+            // Whose turn it is: the one-process test reads that node's entry.
+            let (turn, turn_word) = match ghost_turn {
+                true => (j, other),
+                false => (i, state.history[e]),
+            };
+            if state.status[e] != INTACT
+                || !may_fail(damage, turn, turn_word, weight)
+                || body.no_fail[i]
+                || body.no_fail[j]
+            {
+                return;
             }
+            // w_i + w_j (either order: the same sum).
+            let work = state.history[e] + other;
+            let y = state.current[j] - state.current[i];
+            let len = y.norm();
+            if !damage.fails_on_work(turn, len - ref_len, weight, work) {
+                return;
+            }
+            let geom = BondGeom {
+                ref_len,
+                len,
+                phi_ij,
+                phi_ji,
+                vol_j,
+                mu_ij: 1.0,
+                mu_ji: 1.0,
+                y,
+                xi: body.positions[j] - body.positions[i],
+            };
+            // From j's side the pair force is the exact negation of this one.
+            let pair = self
+                .material
+                .pair_force(i, j, &geom, &self.points[i], &self.points[j]);
+            state.status[e] = BROKEN;
+            broke[i / NODE_CHUNK] += 1;
+            state.force[i] -= pair * vol_j;
+            if let Some(reverse) = reverse {
+                let (_, _, vol_i) = weights.weights(reverse, j, i, ref_len);
+                state.status[reverse] = BROKEN;
+                broke[j / NODE_CHUNK] += 1;
+                state.force[j] += pair * vol_i;
+            }
+        };
+        for t in &remote.earlier {
+            resolve(t.node, t.entry, Some(t.word), true);
+        }
+        for &i in &flagged {
+            for e in bonds.family(i) {
+                let j = bonds.neighbors[e] as usize;
+                let other = (j >= owned).then(|| remote.word(e));
+                resolve(i, e, other, false);
+            }
+        }
+        for t in &remote.later {
+            resolve(t.node, t.entry, Some(t.word), true);
         }
         broke
     }

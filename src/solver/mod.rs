@@ -4,6 +4,7 @@
 pub mod adaptive_dt;
 pub mod contact;
 pub mod contact_halo;
+pub mod cross_bonds;
 pub mod dissipation;
 pub mod forces;
 pub mod impactor;

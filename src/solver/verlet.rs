@@ -123,20 +123,22 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             None => uniform,
             Some(s) => agreed_uniform(&*s.ranks, uniform),
         });
-        let mut engine = ForceEngine::with_quadrature(material, damage, &body, &bonds, quad)?;
+        let owned = share.as_ref().map_or(body.len(), |s| s.owned);
+        let mut engine =
+            ForceEngine::with_quadrature(material, damage, &body, &bonds, quad, owned)?;
+        if let Some(s) = &share {
+            // Before anything reads them (the stable step reads a ghost's micromodulus).
+            engine.material.share_constants(s);
+        }
         let mut dt_stable = engine.stable_time_step(&body, &bonds);
         if let Some(s) = &share {
             // A ghost has no family here (infinite step): the owners' count.
             dt_stable = s.ranks.min_f64(dt_stable);
-            engine
-                .material
-                .share_constants(&mut |values| s.halo.exchange_values(&*s.ranks, values));
             engine.share = Some(s.clone());
         }
         let densities = (0..body.len())
             .map(|i| engine.material.density(i))
             .collect();
-        let owned = share.as_ref().map_or(body.len(), |s| s.owned);
         let (constrained, mask) = constraints(&loading, body.len(), owned);
         let mut state = State::new(&body, &bonds, history_words);
         if keep_previous {
