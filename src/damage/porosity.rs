@@ -182,7 +182,7 @@ steps = 1
             } else {
                 build_model_with::<2>(&ld, |body, families| {
                     let r = ranges(&bond_weights(&body, families.rule), size).unwrap();
-                    let s = split(&body, families.rule, &[], &r, &*ranks).unwrap();
+                    let s = split(&body, families.rule, &[], &r, &*ranks);
                     globals = Some(s.globals.clone());
                     share = Some(Share {
                         ranks: ranks.clone(),
