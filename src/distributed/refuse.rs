@@ -14,9 +14,7 @@ pub fn refusal(feature: &str, ranks: usize) -> RunError {
 /// Refuses the parts of the constitution not yet distributed.
 pub fn constitution_refusal(rest: &DamageAndReports, ranks: usize) -> Result<(), RunError> {
     // Every deck feature, model and damage law (several of them by block), grid, solver,
-    // observer and restart runs distributed (a restart of a non-central model under a
-    // critical energy is refused when the checkpoint is read: `distributed::restart`), and
-    // porosity;
+    // observer and restart runs distributed, and porosity;
     // the surface correction's one-pass factors come from each node's family and are
     // exchanged once, but the iterated method's sweeps read the neighbours' factors of the
     // sweep before.

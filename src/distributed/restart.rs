@@ -3,17 +3,19 @@
 //! it, so rank 0 reads it whole (into a state of the whole body, with every check of
 //! `checkpoint::restore`) and sends each rank its part: the scalars of the state and of the
 //! driver (the same on every rank: the adaptive step's controller, the stage in progress, the
-//! quasi-static solver's increment, largest load and iteration count), its owned nodes' u, v,
-//! y, f and b and the quasi-static predictor's last displacements, and its rows' bond
-//! status and history (a rank's rows are contiguous in the global order: they follow the
-//! rows of the ranks before it). The ghosts then take their owners' u, v and y by the halo
-//! exchange, not from the file. Rank 0 holds the file, the whole state and one rank's part
+//! quasi-static solver's increment, largest load and iteration count, the impactors' motion
+//! and penalty energy), its owned nodes' u, v, y, f and b, the quasi-static predictor's last
+//! displacements and a non-central model's previous positions and own-half matrices, and its
+//! rows' bond status and history (a rank's rows are contiguous in the global order: they
+//! follow the rows of the ranks before it). The ghosts then take their owners' u, v and y
+//! (and previous positions) by the halo exchange, not from the file. Rank 0 holds the file, the whole state and one rank's part
 //! at once: O(N) on rank 0 (about twice the checkpoint's size), as its output already is.
 
 use crate::checkpoint::{DriverState, Origin};
 use crate::material::Material;
 use crate::math::Vector;
 use crate::run::{RunControl, RunError};
+use crate::solver::impactor::ImpactorState;
 use crate::solver::quasi_static::QuasiStaticMemory;
 use crate::solver::ranks::{bytes_from_words, bytes_to_words};
 use crate::solver::Simulation;
@@ -31,8 +33,14 @@ struct Rows {
     history: usize,
 }
 
-/// The scalars a part starts with: the state's and the driver's.
-const HEAD: usize = 14;
+/// The scalars a part starts with: the state's and the driver's, and the impactors' count
+/// (their motion and energy, `impactor_words(D)` each, follow the quasi-static scalars).
+const HEAD: usize = 15;
+
+/// An impactor's words: its position, velocity and force (D each) and its penalty energy.
+const fn impactor_words(d: usize) -> usize {
+    3 * d + 1
+}
 
 /// The quasi-static solver's scalars after them: whether it has a memory, its increment,
 /// largest load and iterations, whether it has a predictor's point, and that point's time
@@ -54,13 +62,12 @@ pub fn restore<const D: usize, M: Material<D>>(
     let share = sim.share.clone().expect("a distributed run's share");
     let ranks = &*share.ranks;
     let state = &mut sim.state;
-    if !state.previous.is_empty() || !state.previous_matrices.is_empty() {
-        // Kept only by non-central models (correspondence), refused at start.
-        return Err(super::refuse::refusal(
-            "a restart of a non-central model",
-            ranks.size(),
-        ));
-    }
+    // Every rank keeps the previous evaluation's positions and matrices or none (a
+    // non-central model under a critical energy), with the same words per node.
+    let kept = Kept {
+        previous: !state.previous.is_empty(),
+        matrix_words: state.previous_matrices.len() / state.u.len().max(1),
+    };
     let mine = Rows {
         first: share.first,
         owned: share.owned,
@@ -69,7 +76,7 @@ pub fn restore<const D: usize, M: Material<D>>(
     };
     let whole = ranks
         .gather(&mine.words())
-        .map(|words| read_whole::<D>(out, origin, &Rows::from_words(&words)));
+        .map(|words| read_whole::<D>(out, origin, &Rows::from_words(&words), kept));
     let refused = match &whole {
         Some(Err(e)) => Some(e.to_string()),
         _ => None,
@@ -89,7 +96,29 @@ pub fn restore<const D: usize, M: Material<D>>(
     });
     let driver = unpack(&part, state, share.owned);
     share.halo.exchange(ranks, state);
+    // A ghost's previous position is read by its neighbours' work increments (its
+    // matrices only by itself: a ghost's are never read).
+    if kept.previous {
+        share.halo.exchange_items(
+            ranks,
+            D,
+            &mut state.previous,
+            |y, buf| buf.extend_from_slice(y.as_slice()),
+            |y, w| *y = Vector::<D>::from_column_slice(w),
+        );
+    }
+    // The impactors' motion and penalty energy: the same on every rank.
+    sim.impactors.restore(&driver.impactors);
     Ok(Some(driver))
+}
+
+/// What a non-central model under a critical energy keeps of the previous evaluation: each
+/// node's position (`State::previous`) and `matrix_words` of its own-half matrices
+/// (`State::previous_matrices`); none otherwise.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Kept {
+    previous: bool,
+    matrix_words: usize,
 }
 
 impl Rows {
@@ -120,18 +149,17 @@ fn read_whole<const D: usize>(
     out: &Path,
     origin: &Origin,
     rows: &[Rows],
+    kept: Kept,
 ) -> Result<Whole<D>, RunError> {
     let sum = |f: fn(&Rows) -> usize| rows.iter().map(f).sum::<usize>();
-    let mut whole = sized::<D>(sum(|r| r.owned), sum(|r| r.entries), sum(|r| r.history));
+    let nodes = sum(|r| r.owned);
+    let mut whole = sized::<D>(nodes, sum(|r| r.entries), sum(|r| r.history));
+    if kept.previous {
+        whole.previous = vec![Vector::<D>::zeros(); nodes];
+    }
+    whole.previous_matrices = vec![0.0; nodes * kept.matrix_words];
     let path = out.join(crate::checkpoint::FILE_NAME);
     let driver = crate::checkpoint::restore(&path, origin, &mut whole)?;
-    if !driver.impactors.is_empty() {
-        // The impactors' state is not scattered yet.
-        return Err(super::refuse::refusal(
-            "a restart of a run with impactors",
-            rows.len(),
-        ));
-    }
     Ok((whole, driver, rows.to_vec()))
 }
 
@@ -194,6 +222,7 @@ fn part_of<const D: usize>(
         f64::from_bits(driver.stage),
         f64::from_bits(driver.stage_start.0),
         driver.stage_start.1,
+        driver.impactors.len() as f64,
     ]);
     part.extend([
         qs.is_some() as u8 as f64,
@@ -203,6 +232,12 @@ fn part_of<const D: usize>(
         previous.is_some() as u8 as f64,
         previous.map_or(0.0, |p| p.0),
     ]);
+    for im in &driver.impactors {
+        for x in [&im.position, &im.velocity, &im.force] {
+            part.extend_from_slice(x.as_slice());
+        }
+        part.push(im.energy);
+    }
     for a in [
         &whole.u,
         &whole.v,
@@ -219,6 +254,12 @@ fn part_of<const D: usize>(
             part.extend_from_slice(x.as_slice());
         }
     }
+    // A non-central model's previous evaluation: its owned nodes' positions and matrices.
+    for x in whole.previous.get(first..first + owned).unwrap_or_default() {
+        part.extend_from_slice(x.as_slice());
+    }
+    let words = whole.previous_matrices.len() / whole.u.len().max(1);
+    part.extend_from_slice(&whole.previous_matrices[first * words..(first + owned) * words]);
     let status = &whole.status[entries_first..entries_first + entries];
     part.extend(bytes_to_words(status));
     part.extend_from_slice(&whole.history[history_first..history_first + history]);
@@ -238,6 +279,7 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
     state.dt = head[6];
     state.iterations = bits(7);
     let (qs, rest) = rest.split_at(QUASI_STATIC);
+    let (impactors, rest) = rest.split_at(head[14] as usize * impactor_words(D));
     let mut driver = DriverState {
         next_dt: head[8],
         since_change: bits(9),
@@ -245,7 +287,15 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
         stage: bits(11),
         stage_start: (bits(12), head[13]),
         quasi_static: None,
-        impactors: Vec::new(),
+        impactors: impactors
+            .chunks_exact(impactor_words(D))
+            .map(|w| ImpactorState {
+                position: Vector::<D>::from_column_slice(&w[..D]),
+                velocity: Vector::<D>::from_column_slice(&w[D..2 * D]),
+                force: Vector::<D>::from_column_slice(&w[2 * D..3 * D]),
+                energy: w[3 * D],
+            })
+            .collect(),
     };
     let (vectors, rest) = rest.split_at(owned * 5 * D);
     let mut words = vectors.chunks_exact(D);
@@ -273,6 +323,19 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
             }),
         });
     }
+    // A non-central model's previous evaluation, as this rank keeps it (ghosts: exchanged).
+    let previous_words = if state.previous.is_empty() {
+        0
+    } else {
+        owned * D
+    };
+    let (previous, rest) = rest.split_at(previous_words);
+    for (y, w) in state.previous.iter_mut().zip(previous.chunks_exact(D)) {
+        *y = Vector::<D>::from_column_slice(w);
+    }
+    let words = state.previous_matrices.len() / state.u.len().max(1);
+    let (matrices, rest) = rest.split_at(owned * words);
+    state.previous_matrices[..owned * words].copy_from_slice(matrices);
     let (status, history) = bytes_from_words(rest);
     assert!(
         status.len() == state.status.len() && history.len() == state.history.len(),
@@ -399,5 +462,53 @@ mod tests {
         let mut local = sized::<2>(3, 0, 0);
         let got = unpack(&part_of(&whole, &driver, &all, 0), &mut local, 3);
         assert_eq!(got, driver);
+    }
+
+    /// The impactors' motion and energy on every rank; a non-central model's previous
+    /// positions and own-half matrices (3 words per node here) as each rank's owned nodes,
+    /// its ghosts' left to the halo exchange.
+    #[test]
+    fn each_rank_gets_the_impactors_and_its_nodes_previous_evaluation() {
+        let mut whole = whole();
+        whole.previous = (0..7).map(|i| Vector::<2>::new(i as f64, 0.75)).collect();
+        whole.previous_matrices = (0..21).map(|k| 0.5 * k as f64).collect();
+        let impactor = |k: f64| ImpactorState::<2> {
+            position: Vector::<2>::new(k, -k),
+            velocity: Vector::<2>::new(80.0 * k, 0.0),
+            force: Vector::<2>::new(-3.0 * k, 1.0),
+            energy: 1e-3 * k,
+        };
+        let driver = DriverState::<2> {
+            impactors: vec![impactor(1.0), impactor(2.0)],
+            ..DriverState::default()
+        };
+        let rows = [(0, 3, 9, 2), (3, 2, 6, 1), (5, 2, 5, 0)];
+        let all: Vec<Rows> = rows
+            .iter()
+            .map(|&(first, owned, e, _)| Rows {
+                first,
+                owned,
+                entries: e,
+                history: 2 * e,
+            })
+            .collect();
+        for (r, (mine, &(_, _, _, ghosts))) in all.iter().zip(&rows).enumerate() {
+            let nodes = mine.owned + ghosts;
+            let mut local = sized::<2>(nodes, mine.entries, mine.history);
+            local.previous = vec![Vector::<2>::zeros(); nodes];
+            local.previous_matrices = vec![0.0; nodes * 3];
+            let got = unpack(&part_of(&whole, &driver, &all, r), &mut local, mine.owned);
+            assert_eq!(got, driver);
+            let owned = mine.first..mine.first + mine.owned;
+            assert_eq!(local.previous[..mine.owned], whole.previous[owned.clone()]);
+            assert_eq!(
+                local.previous_matrices[..mine.owned * 3],
+                whole.previous_matrices[owned.start * 3..owned.end * 3]
+            );
+            assert!(local.previous_matrices[mine.owned * 3..]
+                .iter()
+                .all(|x| *x == 0.0));
+            assert_eq!(local.u[..mine.owned], whole.u[owned]);
+        }
     }
 }

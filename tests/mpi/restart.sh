@@ -5,7 +5,9 @@
 # wall-time lines). The run stops halfway between its middle snapshot and the next, so it
 # continues from the checkpoint of the middle one (in the decks below, with the crack running;
 # under the adaptive time step, dt reduced; in the quasi-static run, its load increment split
-# and its predictor's last point set; in the staged run, inside its explicit release stage). Needs a build with the `mpi` feature:
+# and its predictor's last point set; in the staged run, inside its explicit release stage;
+# with impactors, the disk in contact and slowed; under the correspondence model's critical
+# energy, bonds breaking: each node's previous position and matrices kept). Needs a build with the `mpi` feature:
 #   cargo build --release --features mpi && tests/mpi/restart.sh [DECK...]
 # As root, Open MPI needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
 set -euo pipefail
@@ -14,7 +16,8 @@ bin=${PERIDYN:-target/release/peridyn}
 pairs=${PAIRS:-"2:3 3:1 1:2"}
 if [ $# -eq 0 ]; then
   set -- tests/mpi/lps_energy_notched.toml tests/mpi/pmb_energy_adaptive.toml \
-    tests/mpi/pmb_adr_notched.toml tests/mpi/pmb_staged_preload_release.toml
+    tests/mpi/pmb_adr_notched.toml tests/mpi/pmb_staged_preload_release.toml \
+    tests/mpi/pmb_impactors_crack_path.toml tests/mpi/correspondence_energy_notched.toml
 fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
