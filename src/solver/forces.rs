@@ -821,16 +821,11 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             let (j, ref_len) = (bonds.neighbors[e] as usize, bonds.ref_lengths[e]);
             let (phi_ij, phi_ji, vol_j) = weights.weights(e, i, j, ref_len);
             let weight = 0.5 * (phi_ij + phi_ji);
-            let reverse = (j < owned).then(|| {
-                bonds
-                    .reverse(i, e)
-                    .expect("every bond is stored at both ends")
-            });
-            let other = other.unwrap_or_else(|| state.history[reverse.expect("an owned end")]);
-            // Whose turn it is: the one-process test reads that node's entry.
-            let (turn, turn_word) = match ghost_turn {
-                true => (j, other),
-                false => (i, state.history[e]),
+            // Whose turn it is: the one-process test reads that node's entry (a ghost's word
+            // comes with its turn).
+            let (turn, turn_word) = match (ghost_turn, other) {
+                (true, Some(word)) => (j, word),
+                _ => (i, state.history[e]),
             };
             if state.status[e] != INTACT
                 || !may_fail(damage, turn, turn_word, weight)
@@ -839,6 +834,13 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
             {
                 return;
             }
+            // The reverse entry only for a bond that may break (it is a search in j's row).
+            let reverse = (j < owned).then(|| {
+                bonds
+                    .reverse(i, e)
+                    .expect("every bond is stored at both ends")
+            });
+            let other = other.unwrap_or_else(|| state.history[reverse.expect("an owned end")]);
             // w_i + w_j (either order: the same sum).
             let work = state.history[e] + other;
             let y = state.current[j] - state.current[i];

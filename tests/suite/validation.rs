@@ -171,18 +171,22 @@ needs = "more memory"
     path
 }
 
-#[test]
-fn verdicts_follow_the_tolerances_and_trends() {
-    let dir = scratch("verdicts");
-    let case = LoadedCase::from_file(&case_file(&dir)).unwrap();
-    let run = |series: f64, speed: f64| MeasuredRun {
+/// A finished run of the series value `series` whose output `speed` measured `speed`.
+fn speed_run(series: f64, speed: f64) -> MeasuredRun {
+    MeasuredRun {
         series: Some(series),
         status: "ok".into(),
         wall_minutes: 1.0,
         outputs: [("speed".to_string(), speed)].into_iter().collect(),
-    };
+    }
+}
+
+#[test]
+fn verdicts_follow_the_tolerances_and_trends() {
+    let dir = scratch("verdicts");
+    let case = LoadedCase::from_file(&case_file(&dir)).unwrap();
     let measured = Measured {
-        runs: vec![run(300.0, 520.0), run(400.0, 400.0)],
+        runs: vec![speed_run(300.0, 520.0), speed_run(400.0, 400.0)],
         ..Measured::default()
     };
     let rows = judge_case(&case, Some(&measured), false, &Others::none());
@@ -331,14 +335,8 @@ fn two_cases(root: &Path, b_values: &str) -> (Layout, LoadedCase) {
     std::fs::write(seed.join("a.toml"), a).unwrap();
     std::fs::write(seed.join("b.toml"), case(b_values, "")).unwrap();
     let layout = Layout::new(root.join("validation"));
-    let run = |series: f64, speed: f64| MeasuredRun {
-        series: Some(series),
-        status: "ok".into(),
-        wall_minutes: 1.0,
-        outputs: [("speed".to_string(), speed)].into_iter().collect(),
-    };
     let b = Measured {
-        runs: vec![run(30.0, 500.0), run(40.0, 600.0)],
+        runs: vec![speed_run(30.0, 500.0), speed_run(40.0, 600.0)],
         ..Measured::default()
     };
     let case_b = LoadedCase::from_file(&seed.join("b.toml")).unwrap();
@@ -352,15 +350,9 @@ fn a_comparison_across_cases_pairs_the_runs_of_the_two_series() {
     let root = scratch("across");
     let (layout, a) = two_cases(&root, "[30.0, 40.0]");
     let others = Others::load(&a, &layout).unwrap_or_else(|e| panic!("{e}"));
-    let run = |series: f64, speed: f64| MeasuredRun {
-        series: Some(series),
-        status: "ok".into(),
-        wall_minutes: 1.0,
-        outputs: [("speed".to_string(), speed)].into_iter().collect(),
-    };
     // The first runs pair (300 with 30), the second ones (400 with 40).
     let measured = Measured {
-        runs: vec![run(300.0, 480.0), run(400.0, 590.0)],
+        runs: vec![speed_run(300.0, 480.0), speed_run(400.0, 590.0)],
         ..Measured::default()
     };
     let values: Vec<f64> = measured
@@ -385,14 +377,14 @@ fn a_comparison_across_cases_pairs_the_runs_of_the_two_series() {
     assert_eq!(rows[1].tolerance, "above 450 at every run");
     // One run above the other case's: the difference is not below 0 at every run.
     let crossing = Measured {
-        runs: vec![run(300.0, 480.0), run(400.0, 610.0)],
+        runs: vec![speed_run(300.0, 480.0), speed_run(400.0, 610.0)],
         ..Measured::default()
     };
     let rows = judge_case(&a, Some(&crossing), false, &others);
     assert_eq!(rows[0].status, Status::Differs);
     // One run at 440, below the bound of 450.
     let low = Measured {
-        runs: vec![run(300.0, 440.0), run(400.0, 590.0)],
+        runs: vec![speed_run(300.0, 440.0), speed_run(400.0, 590.0)],
         ..Measured::default()
     };
     assert_eq!(
