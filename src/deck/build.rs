@@ -31,6 +31,7 @@ use crate::material::{Correspondence, Dimensionality, Elasticity, Lps, Mixed, Pm
 use crate::math::{extent, vector_from_slice, Vector};
 use crate::memory;
 use crate::plot::map_nodes::MapNodes;
+use crate::solver::ranks::Share;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -973,6 +974,17 @@ pub fn build_constitution<const D: usize>(
     ld: &LoadedDeck,
     model: &Model<D>,
 ) -> Result<Constitution, DeckError> {
+    build_constitution_shared(ld, model, None)
+}
+
+/// [`build_constitution`] of a rank's share of a distributed run (`share`; `None` in one
+/// process): the iterated surface correction's sweeps read the ghosts' factors from their
+/// owners.
+pub fn build_constitution_shared<const D: usize>(
+    ld: &LoadedDeck,
+    model: &Model<D>,
+    share: Option<&Share>,
+) -> Result<Constitution, DeckError> {
     let deck = &ld.deck;
     let dim = dimensionality(deck).expect("validated deck");
     let thickness = deck.thickness.unwrap_or(1.0);
@@ -1129,7 +1141,7 @@ pub fn build_constitution<const D: usize>(
             }),
         )
     };
-    let (material, surface) = surface_corrected(ld, model, material)?;
+    let (material, surface) = surface_corrected(ld, model, material, share)?;
     Ok(Constitution {
         material,
         damage,
@@ -1145,6 +1157,7 @@ fn surface_corrected<const D: usize>(
     ld: &LoadedDeck,
     model: &Model<D>,
     material: MaterialChoice,
+    share: Option<&Share>,
 ) -> Result<(MaterialChoice, Option<SurfaceFactors>), DeckError> {
     const KEY: &str = "discretization.surface_correction";
     let method = ld.deck.discretization.surface_correction();
@@ -1159,7 +1172,7 @@ fn surface_corrected<const D: usize>(
         )]));
     };
     let quad = Quadrature::for_body(model.rule, &model.body, &model.bonds);
-    let factors = surface_factors(method, &model.body, &model.bonds, &quad, &pmb)
+    let factors = surface_factors(method, &model.body, &model.bonds, &quad, &pmb, share)
         .map_err(|e| ld.locate(vec![DeckIssue::new(KEY, e.to_string())]))?
         .expect("a method was asked for");
     let pmb = corrected(pmb, &factors.factors);

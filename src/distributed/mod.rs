@@ -4,7 +4,7 @@
 //! reach (`share`), exchanges the ghosts inside each step and continues every sum over nodes
 //! in rank order (`solver::ranks`); rank 0 gathers the fields its observers read (`gather`)
 //! and writes every file, and hands each rank its part of a checkpoint to continue from
-//! (`restart`). Features not yet distributed are refused at start (`refuse`).
+//! (`restart`). Every feature of a one-process run runs distributed.
 //!
 //! Everything here but the transport is plain Rust; the transport (`mpi_ranks`, the `mpi`
 //! feature) is the only part that needs an MPI library.
@@ -14,7 +14,6 @@ pub mod gather;
 pub mod mpi_ranks;
 pub mod partition;
 pub mod plan;
-pub mod refuse;
 pub mod restart;
 pub mod run;
 pub mod share;

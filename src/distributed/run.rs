@@ -5,11 +5,10 @@
 
 use super::gather::{Gather, PieceWriter};
 use super::partition::{bond_weights, ranges};
-use super::refuse::constitution_refusal;
 use super::share::split;
 use crate::body::Body;
 use crate::deck::build::{
-    build_constitution, build_model_with, Constitution, MaterialChoice, Model, Part,
+    build_constitution_shared, build_model_with, Constitution, MaterialChoice, Model, Part,
 };
 use crate::deck::schema::Pieces;
 use crate::deck::solver_settings::solver_settings;
@@ -52,12 +51,12 @@ struct Built<const D: usize> {
     grid: Option<GridReport>,
 }
 
-fn run_dim<const D: usize>(
+/// A rank's share of the model (its nodes' families and their ghosts) and of the
+/// constitution, with what the simulation reads of the other ranks.
+fn build_share<const D: usize>(
     ld: &LoadedDeck,
-    opts: &RunOptions,
-    control: &RunControl,
-    ranks: Arc<dyn Ranks>,
-) -> Result<RunSummary, RunError> {
+    ranks: &Arc<dyn Ranks>,
+) -> Result<(Model<D>, Constitution, Built<D>, Share), RunError> {
     let mut built: Option<Built<D>> = None;
     let size = ranks.size();
     let model = build_model_with::<D>(ld, |body, families| {
@@ -65,7 +64,7 @@ fn run_dim<const D: usize>(
         let Some(ranges) = ranges(&weights, size) else {
             return Err(too_few(ld, body.len(), size));
         };
-        let s = split(&body, families.rule, &ld.deck.precracks, &ranges, &*ranks);
+        let s = split(&body, families.rule, &ld.deck.precracks, &ranges, &**ranks);
         let spacing = (ranks.min_f64(s.spacing.0), ranks.max_f64(s.spacing.1));
         let root = ranks.rank() == 0;
         built = Some(Built {
@@ -82,19 +81,42 @@ fn run_dim<const D: usize>(
         })
     })?;
     let built = built.expect("the share was built");
-    let mut c = build_constitution(ld, &model)?;
-    whole_constitution_reports(&mut c, &model, built.owned, &*ranks);
+    let share = share_of(&built, ranks);
+    let mut c = build_constitution_shared(ld, &model, Some(&share))?;
+    whole_constitution_reports(&mut c, &model, built.owned, &**ranks);
+    Ok((model, c, built, share))
+}
+
+/// A rank's part of the whole run: what the constitution and the simulation read of the
+/// other ranks.
+fn share_of<const D: usize>(built: &Built<D>, ranks: &Arc<dyn Ranks>) -> Share {
+    Share {
+        ranks: ranks.clone(),
+        first: built.first,
+        owned: built.owned,
+        global_nodes: ranks.sum_u64(built.owned as u64) as usize,
+        halo: built.halo.clone(),
+    }
+}
+
+fn run_dim<const D: usize>(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+    ranks: Arc<dyn Ranks>,
+) -> Result<RunSummary, RunError> {
+    let (model, c, built, share) = build_share::<D>(ld, &ranks)?;
     let (material, rest) = c.split();
-    constitution_refusal(&rest, size)?;
     let run = (opts, control);
+    let parts = (built, share);
     match material {
-        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, run, built, ranks),
-        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, run, built, ranks),
-        MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, run, built, ranks),
+        MaterialChoice::Pmb(m) => run_model(ld, model, m, rest, run, parts),
+        MaterialChoice::Lps(m) => run_model(ld, model, m, rest, run, parts),
+        MaterialChoice::Correspondence(m) => run_model(ld, model, m, rest, run, parts),
         // PMB and LPS blocks only: the scalar path.
         MaterialChoice::Mixed(m) => match m.into_central() {
-            Ok(m) => run_model(ld, model, m, rest, run, built, ranks),
-            Err(m) => run_model(ld, model, m, rest, run, built, ranks),
+            Ok(m) => run_model(ld, model, m, rest, run, parts),
+            Err(m) => run_model(ld, model, m, rest, run, parts),
         },
     }
 }
@@ -148,10 +170,10 @@ fn run_model<const D: usize, M: Material<D>>(
     material: M,
     rest: DamageAndReports,
     (opts, control): (&RunOptions, &RunControl),
-    built: Built<D>,
-    ranks: Arc<dyn Ranks>,
+    (built, share): (Built<D>, Share),
 ) -> Result<RunSummary, RunError> {
     let out = &opts.out_dir;
+    let ranks = share.ranks.clone();
     let root = ranks.rank() == 0;
     let Built {
         whole,
@@ -160,7 +182,7 @@ fn run_model<const D: usize, M: Material<D>>(
         halo,
         grid,
     } = built;
-    let global_nodes = ranks.sum_u64(owned as u64) as usize;
+    let global_nodes = share.global_nodes;
     if !opts.quiet {
         eprintln!(
             "rank {} of {}: nodes {}..{} ({} owned, {} ghosts from {} peers), halo {} B sent per step",
@@ -174,13 +196,6 @@ fn run_model<const D: usize, M: Material<D>>(
             halo.bytes_sent(3 * D + M::HALO_WORDS)
         );
     }
-    let share = Share {
-        ranks: ranks.clone(),
-        first,
-        owned,
-        global_nodes,
-        halo,
-    };
     let pores = model.pores.clone();
     let plans = std::mem::take(&mut model.stages);
     let staged = !plans.is_empty();
@@ -286,4 +301,95 @@ fn whole_report<const D: usize, M: Material<D>>(
         report.grid = g;
     }
     report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::distributed::thread_ranks::ThreadRanks;
+    use std::path::Path;
+
+    /// A square plate (1 600 nodes) with seed 000's iterated surface correction at
+    /// δ = `ratio` Δx.
+    fn deck(ratio: f64) -> LoadedDeck {
+        let src = format!(
+            r#"version = 2
+dimension = 2
+plane = "stress"
+thickness = 1e-3
+[discretization]
+type = "lattice"
+shape = {{ type = "rectangle", min = [0.0, 0.0], max = [40e-3, 40e-3] }}
+spacing = 1e-3
+horizon_ratio = {ratio}
+surface_correction = "energy_iterated"
+[material]
+type = "pmb"
+density = 1000.0
+youngs_modulus = 1e9
+fracture_energy = 100.0
+[solver]
+type = "explicit"
+end_time = 1e-6
+"#
+        );
+        LoadedDeck::from_str(&src, Path::new("t.toml")).expect("a valid deck")
+    }
+
+    /// On `size` ranks: the owned nodes' factors joined in rank order, the report's
+    /// iterations, or each rank's error.
+    fn factors_on(ld: &LoadedDeck, size: usize) -> Vec<Result<(Vec<f64>, usize), String>> {
+        ThreadRanks::run(size, |ranks| {
+            let (_, c, built, share) = build_share::<2>(ld, &ranks).map_err(|e| e.to_string())?;
+            let s = c.surface.expect("corrected");
+            let all = share.ranks.all_gather(&s.factors[..built.owned]);
+            Ok((all, s.report.iterations))
+        })
+    }
+
+    /// Each sweep reads the neighbours' factors of the sweep before: the ghosts must take
+    /// their owners' after every sweep, and the ranks must stop at the same sweep, for the
+    /// factors to be the one process's bit for bit.
+    #[test]
+    fn iterated_surface_factors_are_the_one_process_ones_on_any_rank_count() {
+        let ld = deck(3.0);
+        let model = crate::deck::build::build_model::<2>(&ld).expect("a model");
+        let one = crate::deck::build::build_constitution(&ld, &model)
+            .expect("converges at δ = 3Δx")
+            .surface
+            .expect("corrected");
+        assert!(one.report.iterations > 10, "{}", one.report.iterations);
+        for size in [2, 3] {
+            for (rank, got) in factors_on(&ld, size).into_iter().enumerate() {
+                let (factors, iterations) = got.expect("converges");
+                assert_eq!(
+                    iterations, one.report.iterations,
+                    "{size} ranks, rank {rank}"
+                );
+                let same = factors
+                    .iter()
+                    .zip(&one.factors)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same && factors.len() == one.factors.len(), "{size} ranks");
+            }
+        }
+    }
+
+    /// Where the iteration has no positive fixed point (δ = 3.5Δx) every rank refuses at the
+    /// same sweep, with the one process's message (the first vanishing node in global order).
+    #[test]
+    fn a_vanishing_factor_is_refused_alike_on_every_rank() {
+        let ld = deck(3.5);
+        let model = crate::deck::build::build_model::<2>(&ld).expect("a model");
+        let Err(one) = crate::deck::build::build_constitution(&ld, &model) else {
+            panic!("refused in one process");
+        };
+        let one = one.to_string();
+        assert!(one.contains("no positive solution"), "{one}");
+        for size in [2, 3] {
+            for got in factors_on(&ld, size) {
+                assert_eq!(got.expect_err("refused"), one, "{size} ranks");
+            }
+        }
+    }
 }

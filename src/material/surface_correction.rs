@@ -31,6 +31,7 @@
 use super::{BondGeom, Pmb};
 use crate::body::Body;
 use crate::bonds::{Bonds, Quadrature};
+use crate::solver::ranks::Share;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -123,19 +124,22 @@ pub enum NotConverged {
 /// A factor this small means the iteration is heading for a fixed point at or below zero.
 const VANISHING: f64 = 1e-3;
 
-/// Computes λ for every node of a PMB body; `None` when no correction is asked for.
+/// Computes λ for every node of a PMB body; `None` when no correction is asked for. On a rank
+/// of a distributed run (`share`), the owned nodes' factors are the one process's, bit for bit
+/// (a ghost's one-pass factor is replaced by its owner's later, `Material::share_constants`).
 pub fn surface_factors<const D: usize>(
     method: SurfaceCorrection,
     body: &Body<D>,
     bonds: &Bonds,
     quad: &Quadrature,
     pmb: &Pmb,
+    share: Option<&Share>,
 ) -> Result<Option<SurfaceFactors>, NotConverged> {
     let (factors, iterations) = match method {
         SurfaceCorrection::None => return Ok(None),
         SurfaceCorrection::Volume => (volume_factors(body, bonds, quad), 1),
         SurfaceCorrection::Energy => (energy_ratio(body, bonds, quad, pmb), 1),
-        SurfaceCorrection::EnergyIterated => energy_factors(body, bonds, quad, pmb)?,
+        SurfaceCorrection::EnergyIterated => energy_factors(body, bonds, quad, pmb, share)?,
     };
     let (min, max) = factors
         .iter()
@@ -248,17 +252,24 @@ fn energy_sweep<const D: usize>(
 }
 
 /// Seed 000 §2.5: Jacobi sweeps (deterministic for any thread count) until the largest
-/// relative change of a factor is below [`TOLERANCE`].
+/// relative change of a factor is below [`TOLERANCE`]. A rank iterates its owned nodes and its
+/// ghosts take their owners' factors after each sweep (the next sweep reads them); the largest
+/// change and a vanishing factor are the whole body's, so every rank stops at the same sweep.
 fn energy_factors<const D: usize>(
     body: &Body<D>,
     bonds: &Bonds,
     quad: &Quadrature,
     pmb: &Pmb,
+    share: Option<&Share>,
 ) -> Result<(Vec<f64>, usize), NotConverged> {
+    let owned = share.map_or(body.len(), |s| s.owned);
     let mut lambda = vec![1.0; body.len()];
     for iteration in 1..=MAX_ITERATIONS {
-        let next = energy_sweep(body, bonds, quad, pmb, &lambda);
-        let (node, change) = next
+        let mut next = energy_sweep(body, bonds, quad, pmb, &lambda);
+        if let Some(s) = share {
+            s.halo.exchange_values(&*s.ranks, &mut next);
+        }
+        let (node, local_change) = next[..owned]
             .iter()
             .zip(&lambda)
             .map(|(a, b)| ((a - b) / b).abs())
@@ -267,12 +278,15 @@ fn energy_factors<const D: usize>(
                 (0, 0.0),
                 |best, (k, c)| if c > best.1 { (k, c) } else { best },
             );
-        let position = |k: usize| body.positions[k].as_slice().to_vec();
-        if let Some((k, &value)) = next.iter().enumerate().find(|(_, &l)| l < VANISHING) {
+        let change = share.map_or(local_change, |s| s.ranks.max_f64(local_change));
+        let vanishing = next[..owned].iter().position(|&l| l < VANISHING);
+        if let Some((value, position)) =
+            first_over_ranks(share, body, vanishing.map(|k| (k, next[k])))
+        {
             return Err(NotConverged::Vanishing {
                 iterations: iteration,
                 value,
-                position: position(k),
+                position,
             });
         }
         lambda = next;
@@ -280,12 +294,40 @@ fn energy_factors<const D: usize>(
             return Ok((lambda, iteration));
         }
         if iteration == MAX_ITERATIONS {
+            let mine = (local_change == change).then_some((node, change));
+            let (change, position) =
+                first_over_ranks(share, body, mine).expect("some rank has the largest change");
             return Err(NotConverged::Slow {
                 iterations: iteration,
                 change,
-                position: position(node),
+                position,
             });
         }
     }
     unreachable!("the loop returns on its last iteration")
+}
+
+/// The value and position of the first node in global order that some rank names (`local`:
+/// one of its owned nodes and a value), on every rank; every rank calls it.
+fn first_over_ranks<const D: usize>(
+    share: Option<&Share>,
+    body: &Body<D>,
+    local: Option<(usize, f64)>,
+) -> Option<(f64, Vec<f64>)> {
+    let mine = local.map(|(k, value)| (value, body.positions[k].as_slice().to_vec()));
+    let Some(s) = share else {
+        return mine;
+    };
+    // [named?, value, position]: the ranks own consecutive parts of the global order.
+    let mut words = vec![0.0; 2 + D];
+    if let Some((value, position)) = &mine {
+        words[0] = 1.0;
+        words[1] = *value;
+        words[2..].copy_from_slice(position);
+    }
+    s.ranks
+        .all_gather(&words)
+        .chunks_exact(2 + D)
+        .find(|w| w[0] == 1.0)
+        .map(|w| (w[1], w[2..].to_vec()))
 }

@@ -248,7 +248,7 @@ fn body_energy_error<const D: usize>(
     let el = Material::<D>::elasticity(&material);
     let (body, bonds) = lattice_body::<D>(n, 1e-3, m, rule);
     let quad = Quadrature::for_body(rule, &body, &bonds);
-    let material = match surface_factors(method, &body, &bonds, &quad, &material).unwrap() {
+    let material = match surface_factors(method, &body, &bonds, &quad, &material, None).unwrap() {
         Some(f) => corrected(material, &f.factors),
         None => material,
     };
@@ -340,6 +340,7 @@ fn iterated_surface_correction_converges_or_is_refused() {
         &bonds,
         &quad,
         &material,
+        None,
     )
     .unwrap_err();
     assert!(
@@ -364,9 +365,16 @@ fn corrected_nodes_store_the_bulk_energy_density() {
         let material =
             pmb(dim, 70e9, h0, MicromodulusProfile::Constant).with_horizons(&body.horizons);
         let quad = Quadrature::for_body(rule, &body, &bonds);
-        let f = surface_factors(SurfaceCorrection::Energy, &body, &bonds, &quad, &material)
-            .unwrap()
-            .unwrap();
+        let f = surface_factors(
+            SurfaceCorrection::Energy,
+            &body,
+            &bonds,
+            &quad,
+            &material,
+            None,
+        )
+        .unwrap()
+        .unwrap();
         let material = corrected(material, &f.factors);
         let el = Material::<D>::elasticity(&material);
         let mut sim = simulation(body, bonds, material, CriticalStretch::never(), rule);
