@@ -147,7 +147,7 @@ fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
 }
 
 /// A writer that hashes what passes through it.
-struct Hashing<W: Write> {
+pub struct Hashing<W: Write> {
     inner: W,
     hash: u64,
 }
@@ -174,6 +174,109 @@ fn put_vectors<const D: usize>(w: &mut impl Write, v: &[Vector<D>]) -> io::Resul
         .try_for_each(|c| w.write_all(&c.to_le_bytes()))
 }
 
+/// The arrays of a checkpoint, in the file's order: the node vectors, the bond status and
+/// history, a non-central model's previous evaluation (positions and own-half matrices) and
+/// the quasi-static predictor's displacements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Section {
+    U,
+    V,
+    Current,
+    Force,
+    BodyForce,
+    Status,
+    History,
+    Previous,
+    PreviousMatrices,
+    Predictor,
+}
+
+impl Section {
+    pub const ALL: [Section; 10] = [
+        Section::U,
+        Section::V,
+        Section::Current,
+        Section::Force,
+        Section::BodyForce,
+        Section::Status,
+        Section::History,
+        Section::Previous,
+        Section::PreviousMatrices,
+        Section::Predictor,
+    ];
+}
+
+/// The lengths of the whole body's arrays, as the header gives them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sizes {
+    pub nodes: usize,
+    /// Directed bond entries.
+    pub entries: usize,
+    pub history: usize,
+    /// Previous positions (0 or nodes).
+    pub previous: usize,
+    /// Previous own-half matrix words.
+    pub matrices: usize,
+    /// The quasi-static predictor's displacements (0 or nodes).
+    pub predictor: usize,
+}
+
+impl Sizes {
+    /// The sizes of a one-process run's arrays.
+    pub fn of<const D: usize>(state: &State<D>, driver: &DriverState<D>) -> Self {
+        Sizes {
+            nodes: state.u.len(),
+            entries: state.status.len(),
+            history: state.history.len(),
+            previous: state.previous.len(),
+            matrices: state.previous_matrices.len(),
+            predictor: predictor(driver).map_or(0, <[_]>::len),
+        }
+    }
+}
+
+/// The quasi-static predictor's displacements, when the driver has them.
+fn predictor<const D: usize>(driver: &DriverState<D>) -> Option<&[Vector<D>]> {
+    let qs = driver.quasi_static.as_ref()?;
+    qs.previous.as_ref().map(|(_, u)| &u[..])
+}
+
+/// Writes `section` of the nodes `..owned` of `state` (all of them in one process; a rank's
+/// owned nodes, which come first) and of all its bond entries.
+pub fn write_section<const D: usize>(
+    section: Section,
+    state: &State<D>,
+    driver: &DriverState<D>,
+    owned: usize,
+    w: &mut impl Write,
+) -> io::Result<()> {
+    let f64s = |w: &mut _, a: &[f64]| {
+        a.iter()
+            .try_for_each(|x| Write::write_all(w, &x.to_le_bytes()))
+    };
+    match section {
+        Section::U => put_vectors(w, &state.u[..owned]),
+        Section::V => put_vectors(w, &state.v[..owned]),
+        Section::Current => put_vectors(w, &state.current[..owned]),
+        Section::Force => put_vectors(w, &state.force[..owned]),
+        Section::BodyForce => put_vectors(w, &state.body_force[..owned]),
+        Section::Status => w.write_all(&state.status),
+        Section::History => f64s(w, &state.history),
+        Section::Previous => put_vectors(w, &state.previous[..owned.min(state.previous.len())]),
+        Section::PreviousMatrices => {
+            let words = state.previous_matrices.len() / state.u.len().max(1);
+            f64s(w, &state.previous_matrices[..owned * words])
+        }
+        Section::Predictor => match predictor(driver) {
+            Some(u) => put_vectors(w, &u[..owned]),
+            None => Ok(()),
+        },
+    }
+}
+
+/// The writer a checkpoint's arrays go through (it hashes them).
+pub type SectionWriter<'a> = Hashing<&'a mut std::io::BufWriter<std::fs::File>>;
+
 /// Writes the checkpoint of `state` atomically to `path`.
 pub fn write<const D: usize>(
     path: &Path,
@@ -181,19 +284,47 @@ pub fn write<const D: usize>(
     state: &State<D>,
     driver: &DriverState<D>,
 ) -> io::Result<()> {
-    // Destructured without `..`: a field added to State fails to compile until it is saved.
+    let nodes = state.u.len();
+    write_with(
+        path,
+        origin,
+        &Sizes::of(state, driver),
+        state,
+        driver,
+        |w| {
+            Section::ALL
+                .iter()
+                .try_for_each(|&s| write_section(s, state, driver, nodes, w))
+        },
+    )
+}
+
+/// Writes a checkpoint atomically to `path`: the header of arrays of `sizes`, the scalars of
+/// `state` and `driver`, then the arrays as `arrays` writes them ([`Section::ALL`] in order,
+/// each of the whole body: a distributed run's come from every rank in turn), then the
+/// impactors and the hash.
+pub fn write_with<const D: usize>(
+    path: &Path,
+    origin: &Origin,
+    sizes: &Sizes,
+    state: &State<D>,
+    driver: &DriverState<D>,
+    arrays: impl FnOnce(&mut SectionWriter) -> io::Result<()>,
+) -> io::Result<()> {
+    // Destructured without `..`: a scalar added to State fails to compile until it is saved
+    // (an array, until `Section` writes it).
     let State {
         time,
         step,
-        u,
-        v,
-        current,
-        force,
-        body_force,
-        status,
-        history,
-        previous,
-        previous_matrices,
+        u: _,
+        v: _,
+        current: _,
+        force: _,
+        body_force: _,
+        status: _,
+        history: _,
+        previous: _,
+        previous_matrices: _,
         broken,
         external_work,
         dissipated_viscous,
@@ -213,15 +344,14 @@ pub fn write<const D: usize>(
         w.write_all(&origin.deck_hash.to_le_bytes())?;
         let qs = driver.quasi_static.as_ref();
         let qs_previous = qs.and_then(|m| m.previous.as_ref());
-        let predictor = qs_previous.map_or(0, |(_, p)| p.len());
         for size in [
             D,
-            u.len(),
-            status.len(),
-            history.len(),
-            previous.len(),
-            previous_matrices.len(),
-            predictor,
+            sizes.nodes,
+            sizes.entries,
+            sizes.history,
+            sizes.previous,
+            sizes.matrices,
+            sizes.predictor,
             driver.impactors.len(),
         ] {
             w.write_all(&(size as u64).to_le_bytes())?;
@@ -252,20 +382,7 @@ pub fn write<const D: usize>(
         for x in scalars {
             w.write_all(&x.to_le_bytes())?;
         }
-        for a in [u, v, current, force, body_force] {
-            put_vectors(&mut w, a)?;
-        }
-        w.write_all(status)?;
-        history
-            .iter()
-            .try_for_each(|x| w.write_all(&x.to_le_bytes()))?;
-        put_vectors(&mut w, previous)?;
-        previous_matrices
-            .iter()
-            .try_for_each(|x| w.write_all(&x.to_le_bytes()))?;
-        if let Some((_, displacements)) = qs_previous {
-            put_vectors(&mut w, displacements)?;
-        }
+        arrays(&mut w)?;
         for im in &driver.impactors {
             put_vectors(&mut w, &[im.position, im.velocity, im.force])?;
             w.write_all(&im.energy.to_le_bytes())?;
@@ -340,25 +457,75 @@ fn unused_history(found: u64, expected: usize, bond_entries: usize) -> bool {
     expected == 0 && bond_entries > 0 && found != 0 && found.is_multiple_of(bond_entries as u64)
 }
 
-/// Restores `state` (built by the same deck) and returns the driver state from the checkpoint
-/// at `path`, refusing one from another program or deck, of other sizes, truncated or corrupt.
-pub fn restore<const D: usize>(
-    path: &Path,
+/// What a checkpoint's header and scalars say, checked against the run continuing it.
+struct Head<const D: usize> {
+    /// The state's scalars (its arrays left empty).
+    scalars: State<D>,
+    /// The driver state but the quasi-static predictor's displacements and the impactors.
+    driver: DriverState<D>,
+    /// Whether the quasi-static memory has a predictor's point, and its time.
+    predictor: Option<f64>,
+    /// Sizes of the file's arrays (its history words may be a record this build reads past).
+    sizes: Sizes,
+    impactors: usize,
+    /// Where the arrays begin.
+    arrays: u64,
+}
+
+impl<const D: usize> Head<D> {
+    /// Where `section` begins in the file, and its bytes per element (a node, an entry, a
+    /// word).
+    fn section(&self, section: Section) -> (u64, u64) {
+        let n = self.sizes.nodes as u64;
+        let vectors = 8 * D as u64;
+        let matrix_words = (self.sizes.matrices / self.sizes.nodes.max(1)) as u64;
+        let lengths = [
+            n * vectors,
+            n * vectors,
+            n * vectors,
+            n * vectors,
+            n * vectors,
+            self.sizes.entries as u64,
+            8 * self.sizes.history as u64,
+            vectors * self.sizes.previous as u64,
+            8 * self.sizes.matrices as u64,
+            vectors * self.sizes.predictor as u64,
+        ];
+        let k = Section::ALL
+            .iter()
+            .position(|&x| x == section)
+            .expect("a section");
+        let start = self.arrays + lengths[..k].iter().sum::<u64>();
+        // An array the file does not hold (no previous evaluation, no predictor) has no
+        // elements to read.
+        let element = match section {
+            Section::Status => 1,
+            Section::History => 8,
+            Section::PreviousMatrices => 8 * matrix_words,
+            Section::Previous if self.sizes.previous == 0 => 0,
+            Section::Predictor if self.sizes.predictor == 0 => 0,
+            _ => vectors,
+        };
+        (start, element)
+    }
+
+    /// Where the impactors begin (after the arrays).
+    fn impactors_start(&self) -> u64 {
+        let (start, element) = self.section(Section::Predictor);
+        start + element * self.sizes.predictor as u64
+    }
+}
+
+/// Reads and checks the header and scalars of a checkpoint of `file_len` bytes (`r` reads
+/// its beginning): another program or deck, arrays of sizes other than `expected` (the
+/// predictor's may be 0 or the nodes), or a length other than they give, are refused.
+fn read_head<const D: usize>(
+    r: &mut Reader,
     origin: &Origin,
-    state: &mut State<D>,
-) -> Result<DriverState<D>, CheckpointError> {
-    let bytes = match std::fs::read(path) {
-        Ok(b) => b,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => {
-            return Err(CheckpointError::Missing(path.to_path_buf()))
-        }
-        Err(e) => return Err(with_path(e, "cannot read", path).into()),
-    };
-    let mut r = Reader {
-        bytes: &bytes,
-        pos: 0,
-        path,
-    };
+    expected: &Sizes,
+    file_len: u64,
+) -> Result<Head<D>, CheckpointError> {
+    let path = r.path;
     if r.take(MAGIC.len()).ok() != Some(MAGIC.as_slice()) {
         return Err(CheckpointError::NotCheckpoint(path.to_path_buf()));
     }
@@ -385,92 +552,72 @@ pub fn restore<const D: usize>(
             deck_hash: origin.deck_hash,
         });
     }
-    let State {
-        time,
-        step,
-        u,
-        v,
-        current,
-        force,
-        body_force,
-        status,
-        history,
-        previous,
-        previous_matrices,
-        broken,
-        external_work,
-        dissipated_viscous,
-        dissipated_damage,
-        dt,
-        iterations,
-    } = state;
     // History words in the file: a record that this build's damage law no longer keeps is
     // read past (see `unused_history`).
-    let mut file_history = history.len();
-    for (what, expected) in [
+    let mut sizes = *expected;
+    for (what, want) in [
         ("dimensions", D),
-        ("nodes", u.len()),
-        ("directed bond entries", status.len()),
-        ("damage history words", history.len()),
-        ("previous positions", previous.len()),
-        ("previous own-half matrix words", previous_matrices.len()),
+        ("nodes", expected.nodes),
+        ("directed bond entries", expected.entries),
+        ("damage history words", expected.history),
+        ("previous positions", expected.previous),
+        ("previous own-half matrix words", expected.matrices),
     ] {
         let found = r.u64()?;
-        if what == "damage history words" && unused_history(found, expected, status.len()) {
-            file_history = found as usize;
+        if what == "damage history words" && unused_history(found, want, expected.entries) {
+            sizes.history = found as usize;
             continue;
         }
-        if found != expected as u64 {
+        if found != want as u64 {
             return Err(CheckpointError::Size {
                 path: path.to_path_buf(),
                 what,
                 found,
-                expected: expected as u64,
+                expected: want as u64,
             });
         }
     }
-    let n = u.len();
-    let predictor = r.u64()? as usize;
-    if predictor != 0 && predictor != n {
+    let n = expected.nodes;
+    sizes.predictor = r.u64()? as usize;
+    if sizes.predictor != 0 && sizes.predictor != n {
         return Err(CheckpointError::Size {
             path: path.to_path_buf(),
             what: "quasi-static predictor displacements",
-            found: predictor as u64,
+            found: sizes.predictor as u64,
             expected: n as u64,
         });
     }
     let impactors = r.u64()? as usize;
-    let payload = SCALARS * 8
-        + 5 * n * D * 8
-        + status.len()
-        + (file_history + previous_matrices.len()) * 8
-        + (previous.len() + predictor) * D * 8
-        + impactors.saturating_mul((3 * D + 1) * 8);
-    let expected = r.pos.saturating_add(payload).saturating_add(8) as u64;
-    if bytes.len() as u64 != expected {
+    let arrays = (r.pos + SCALARS * 8) as u64;
+    let mut head = Head {
+        scalars: State::empty(),
+        driver: DriverState::default(),
+        predictor: None,
+        sizes,
+        impactors,
+        arrays,
+    };
+    let expected_len = head
+        .impactors_start()
+        .saturating_add((impactors as u64).saturating_mul(((3 * D + 1) * 8) as u64))
+        .saturating_add(8);
+    if file_len != expected_len {
         return Err(CheckpointError::Truncated {
             path: path.to_path_buf(),
-            found: bytes.len() as u64,
-            expected,
+            found: file_len,
+            expected: expected_len,
         });
     }
-    let body = &bytes[..bytes.len() - 8];
-    let stored = u64::from_le_bytes(bytes[body.len()..].try_into().expect("8 bytes"));
-    if fnv1a(FNV_OFFSET, body) != stored {
-        return Err(CheckpointError::Corrupt {
-            path: path.to_path_buf(),
-            what: "its checksum does not match its contents".into(),
-        });
-    }
-    *time = r.f64()?;
-    *step = r.u64()?;
-    *broken = r.u64()?;
-    *external_work = r.f64()?;
-    *dissipated_viscous = r.f64()?;
-    *dissipated_damage = r.f64()?;
-    *dt = r.f64()?;
-    *iterations = r.u64()?;
-    let mut driver = DriverState {
+    let s = &mut head.scalars;
+    s.time = r.f64()?;
+    s.step = r.u64()?;
+    s.broken = r.u64()?;
+    s.external_work = r.f64()?;
+    s.dissipated_viscous = r.f64()?;
+    s.dissipated_damage = r.f64()?;
+    s.dt = r.f64()?;
+    s.iterations = r.u64()?;
+    head.driver = DriverState {
         next_dt: r.f64()?,
         since_change: r.u64()?,
         rejected: r.u64()?,
@@ -482,48 +629,208 @@ pub fn restore<const D: usize>(
     let qs = r.u64()? == 1;
     let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
     let (has_previous, previous_time) = (r.u64()? == 1, r.f64()?);
-    for a in [u, v, current, force, body_force] {
-        r.vectors(a)?;
-    }
-    let bond_entries = status.len();
-    status.copy_from_slice(r.take(bond_entries)?);
-    // (Nothing is copied from a record this build does not keep: `history` is empty then.)
-    for (x, chunk) in history
-        .iter_mut()
-        .zip(r.take(file_history * 8)?.chunks_exact(8))
-    {
-        *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
-    }
-    r.vectors(previous)?;
-    let words = previous_matrices.len();
-    for (x, chunk) in previous_matrices
-        .iter_mut()
-        .zip(r.take(words * 8)?.chunks_exact(8))
-    {
-        *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
-    }
     if qs {
-        let mut displacements = vec![Vector::<D>::zeros(); predictor];
-        r.vectors(&mut displacements)?;
-        driver.quasi_static = Some(QuasiStaticMemory {
+        head.driver.quasi_static = Some(QuasiStaticMemory {
             increment,
             largest_load,
             iterations,
-            previous: has_previous.then_some((previous_time, displacements)),
+            previous: None,
         });
+        head.predictor = has_previous.then_some(previous_time);
     }
-    for _ in 0..impactors {
-        let mut motion = [Vector::<D>::zeros(); 3];
-        r.vectors(&mut motion)?;
-        let [position, velocity, force] = motion;
-        driver.impactors.push(ImpactorState {
-            position,
-            velocity,
-            force,
-            energy: r.f64()?,
-        });
+    Ok(head)
+}
+
+/// The impactors' motion and penalty energy (`r` at their start).
+fn read_impactors<const D: usize>(
+    r: &mut Reader,
+    count: usize,
+) -> Result<Vec<ImpactorState<D>>, CheckpointError> {
+    (0..count)
+        .map(|_| {
+            let mut motion = [Vector::<D>::zeros(); 3];
+            r.vectors(&mut motion)?;
+            let [position, velocity, force] = motion;
+            Ok(ImpactorState {
+                position,
+                velocity,
+                force,
+                energy: r.f64()?,
+            })
+        })
+        .collect()
+}
+
+/// The quasi-static memory with the predictor's displacements, when it has a point.
+fn with_predictor<const D: usize>(head: &mut Head<D>, displacements: Vec<Vector<D>>) {
+    if let (Some(m), Some(t)) = (head.driver.quasi_static.as_mut(), head.predictor) {
+        m.previous = Some((t, displacements));
     }
-    Ok(driver)
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, CheckpointError> {
+    match std::fs::read(path) {
+        Ok(b) => Ok(b),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            Err(CheckpointError::Missing(path.to_path_buf()))
+        }
+        Err(e) => Err(with_path(e, "cannot read", path).into()),
+    }
+}
+
+fn corrupt(path: &Path) -> CheckpointError {
+    CheckpointError::Corrupt {
+        path: path.to_path_buf(),
+        what: "its checksum does not match its contents".into(),
+    }
+}
+
+/// Restores `state` (built by the same deck) and returns the driver state from the checkpoint
+/// at `path`, refusing one from another program or deck, of other sizes, truncated or corrupt.
+pub fn restore<const D: usize>(
+    path: &Path,
+    origin: &Origin,
+    state: &mut State<D>,
+) -> Result<DriverState<D>, CheckpointError> {
+    let bytes = read_file(path)?;
+    let mut r = Reader {
+        bytes: &bytes,
+        pos: 0,
+        path,
+    };
+    let expected = Sizes::of(state, &DriverState::default());
+    let mut head = read_head::<D>(&mut r, origin, &expected, bytes.len() as u64)?;
+    let body = &bytes[..bytes.len() - 8];
+    let stored = u64::from_le_bytes(bytes[body.len()..].try_into().expect("8 bytes"));
+    if fnv1a(FNV_OFFSET, body) != stored {
+        return Err(corrupt(path));
+    }
+    state.step_scalars_from(&head.scalars);
+    for a in [
+        &mut state.u,
+        &mut state.v,
+        &mut state.current,
+        &mut state.force,
+        &mut state.body_force,
+    ] {
+        r.vectors(a)?;
+    }
+    let bond_entries = state.status.len();
+    state.status.copy_from_slice(r.take(bond_entries)?);
+    // (Nothing is copied from a record this build does not keep: `history` is empty then.)
+    let history = r.take(head.sizes.history * 8)?;
+    copy_f64s(&mut state.history, history);
+    r.vectors(&mut state.previous)?;
+    let words = state.previous_matrices.len();
+    copy_f64s(&mut state.previous_matrices, r.take(words * 8)?);
+    let mut displacements = vec![Vector::<D>::zeros(); head.sizes.predictor];
+    r.vectors(&mut displacements)?;
+    with_predictor(&mut head, displacements);
+    head.driver.impactors = read_impactors(&mut r, head.impactors)?;
+    Ok(head.driver)
+}
+
+/// f64s from their little-endian bytes (as many as both hold).
+fn copy_f64s(out: &mut [f64], bytes: &[u8]) {
+    for (x, chunk) in out.iter_mut().zip(bytes.chunks_exact(8)) {
+        *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
+    }
+}
+
+/// A checkpoint read by parts, for a distributed restart: rank 0 hands each rank its part
+/// without holding the whole body's arrays. The header, sizes, length and checksum are checked
+/// as `restore` checks them (the checksum in one pass over the file); the arrays stay in the
+/// file until a part is read.
+pub struct Parts<const D: usize> {
+    file: std::fs::File,
+    head: Head<D>,
+}
+
+/// The header and scalars of a checkpoint fit in this many bytes (the deck's path is the
+/// longest part).
+const HEAD_BYTES: u64 = 1 << 20;
+
+impl<const D: usize> Parts<D> {
+    /// Opens the checkpoint at `path` of a run whose whole body's arrays have `expected`
+    /// sizes.
+    pub fn open(path: &Path, origin: &Origin, expected: &Sizes) -> Result<Self, CheckpointError> {
+        use std::io::{Read, Seek, SeekFrom};
+        let cannot = |e: io::Error| CheckpointError::from(with_path(e, "cannot read", path));
+        let mut file = match std::fs::File::open(path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => {
+                return Err(CheckpointError::Missing(path.to_path_buf()))
+            }
+            Err(e) => return Err(cannot(e)),
+        };
+        let len = file.metadata().map_err(cannot)?.len();
+        let mut prefix = Vec::new();
+        (&mut file)
+            .take(len.min(HEAD_BYTES))
+            .read_to_end(&mut prefix)
+            .map_err(cannot)?;
+        let mut r = Reader {
+            bytes: &prefix,
+            pos: 0,
+            path,
+        };
+        let mut head = read_head::<D>(&mut r, origin, expected, len)?;
+        // The checksum, streamed over everything before it.
+        file.seek(SeekFrom::Start(0)).map_err(cannot)?;
+        let mut hash = FNV_OFFSET;
+        let mut left = len - 8;
+        let mut chunk = vec![0u8; 1 << 22];
+        while left > 0 {
+            let n = left.min(chunk.len() as u64) as usize;
+            file.read_exact(&mut chunk[..n]).map_err(cannot)?;
+            hash = fnv1a(hash, &chunk[..n]);
+            left -= n as u64;
+        }
+        let mut tail = vec![0u8; 8];
+        file.read_exact(&mut tail).map_err(cannot)?;
+        if u64::from_le_bytes(tail.try_into().expect("8 bytes")) != hash {
+            return Err(corrupt(path));
+        }
+        let start = head.impactors_start();
+        let mut impactors = vec![0u8; (len - 8 - start) as usize];
+        file.seek(SeekFrom::Start(start)).map_err(cannot)?;
+        file.read_exact(&mut impactors).map_err(cannot)?;
+        let mut r = Reader {
+            bytes: &impactors,
+            pos: 0,
+            path,
+        };
+        head.driver.impactors = read_impactors(&mut r, head.impactors)?;
+        Ok(Parts { file, head })
+    }
+
+    /// The state's scalars (arrays empty).
+    pub fn scalars(&self) -> &State<D> {
+        &self.head.scalars
+    }
+
+    /// The driver state; its quasi-static memory's predictor displacements are read by part
+    /// (`Section::Predictor`): `predictor_time` says whether it has them.
+    pub fn driver(&self) -> &DriverState<D> {
+        &self.head.driver
+    }
+
+    /// The time of the quasi-static predictor's point, when the memory has one.
+    pub fn predictor_time(&self) -> Option<f64> {
+        self.head.predictor
+    }
+
+    /// The little-endian bytes of elements `first..first + count` of `section` (nodes,
+    /// entries or history words).
+    pub fn read(&mut self, section: Section, first: usize, count: usize) -> io::Result<Vec<u8>> {
+        use std::io::{Read, Seek, SeekFrom};
+        let (start, element) = self.head.section(section);
+        let mut bytes = vec![0u8; count * element as usize];
+        self.file
+            .seek(SeekFrom::Start(start + first as u64 * element))?;
+        self.file.read_exact(&mut bytes)?;
+        Ok(bytes)
+    }
 }
 
 #[cfg(test)]

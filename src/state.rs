@@ -152,6 +152,41 @@ impl<const D: usize> State<D> {
         }
     }
 
+    /// A state of no nodes and no bonds: the scalars of a checkpoint before its arrays.
+    pub fn empty() -> Self {
+        State {
+            time: 0.0,
+            step: 0,
+            u: Vec::new(),
+            v: Vec::new(),
+            current: Vec::new(),
+            force: Vec::new(),
+            body_force: Vec::new(),
+            status: Vec::new(),
+            history: Vec::new(),
+            previous: Vec::new(),
+            previous_matrices: Vec::new(),
+            broken: 0,
+            external_work: 0.0,
+            dissipated_viscous: 0.0,
+            dissipated_damage: 0.0,
+            dt: 0.0,
+            iterations: 0,
+        }
+    }
+
+    /// Takes `other`'s scalars: the time, step, counts and energies booked so far.
+    pub fn step_scalars_from(&mut self, other: &State<D>) {
+        self.time = other.time;
+        self.step = other.step;
+        self.broken = other.broken;
+        self.external_work = other.external_work;
+        self.dissipated_viscous = other.dissipated_viscous;
+        self.dissipated_damage = other.dissipated_damage;
+        self.dt = other.dt;
+        self.iterations = other.iterations;
+    }
+
     /// Sets u and keeps `current` consistent.
     pub fn set_displacement(&mut self, body: &Body<D>, i: usize, u: Vector<D>) {
         self.u[i] = u;

@@ -9,7 +9,7 @@
 use crate::analysis::BrokenHalf;
 use crate::body::Body;
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
-use crate::checkpoint::DriverState;
+use crate::checkpoint::{write_section, Checkpoints, DriverState, Section, Sizes};
 use crate::math::Vector;
 use crate::observe::observer::Every;
 use crate::observe::snapshots::{piece_name, NodeFields};
@@ -19,6 +19,7 @@ use crate::solver::impactor::Impactor;
 use crate::solver::ranks::{bytes_from_words, bytes_to_words, Ranks};
 use crate::solver::Fields;
 use crate::state::State;
+use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -190,7 +191,7 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         let Some(root) = self.root.as_mut() else {
             return Ok(());
         };
-        root.state.step_like(state);
+        root.state.step_scalars_from(state);
         root.dissipation = dissipation;
         if let Some(words) = halves.flatten() {
             root.halves = unpack_halves(&words);
@@ -210,71 +211,92 @@ impl<const D: usize> ViewSource<D> for Gather<D> {
         Ok(())
     }
 
-    fn whole_state(&mut self, state: &State<D>) -> Option<&State<D>> {
-        // The bond entries of the owned rows are all of this rank's (a ghost has none), and
-        // the ranks' rows follow each other in the global order.
-        let status = self.ranks.gather(&bytes_to_words(&state.status));
-        let history = self.ranks.gather(&state.history);
-        // A non-central model under a critical energy: each owned node's position and
-        // own-half matrices at the previous evaluation (every rank keeps them or none).
-        let nodes = state.u.len();
-        let previous: Vec<f64> = state.previous[..self.owned.min(state.previous.len())]
-            .iter()
-            .flat_map(|v| v.iter().copied())
-            .collect();
-        let previous = (!state.previous.is_empty()).then(|| self.ranks.gather(&previous));
-        let words = state.previous_matrices.len() / nodes.max(1);
-        let matrices = (words > 0).then(|| {
-            self.ranks
-                .gather(&state.previous_matrices[..self.owned * words])
-        });
-        self.gather_nodes(state, &[])?;
-        let root = self.root.as_mut()?;
-        // Every rank's packed status in rank order.
-        let (mut words, mut whole) = (&status?[..], Vec::new());
-        while !words.is_empty() {
-            let (bytes, rest) = bytes_from_words(words);
-            whole.extend(bytes);
-            words = rest;
+    fn write_checkpoint(
+        &mut self,
+        checkpoints: &Checkpoints,
+        state: &State<D>,
+        driver: &DriverState<D>,
+    ) -> Result<(), RunError> {
+        let ranks = &*self.ranks;
+        let sizes = self.whole_sizes(state, driver);
+        let mut written = false;
+        let result = match self.root {
+            Some(_) => crate::checkpoint::write_with(
+                &checkpoints.path,
+                &checkpoints.origin,
+                &sizes,
+                state,
+                driver,
+                |w| {
+                    written = true;
+                    stream_sections(ranks, state, driver, self.owned, Some(w))
+                },
+            ),
+            None => Ok(()),
+        };
+        // The other ranks' parts are taken even when rank 0 could not write them (no rank
+        // waits for ever), and every rank learns the outcome.
+        if !written {
+            let _ = stream_sections::<D, std::io::Sink>(ranks, state, driver, self.owned, None);
         }
-        root.state.status = whole;
-        root.state.history = history?;
-        if let Some(previous) = previous.flatten() {
-            root.state.previous = previous
-                .chunks_exact(D)
-                .map(Vector::<D>::from_column_slice)
-                .collect();
+        let failed = result.as_ref().err().map(ToString::to_string);
+        match (result, ranks.first_message(failed)) {
+            (Err(e), _) => Err(e.into()),
+            (Ok(()), Some(message)) => Err(RunError::Distributed(message)),
+            (Ok(()), None) => Ok(()),
         }
-        if let Some(matrices) = matrices.flatten() {
-            root.state.previous_matrices = matrices;
-        }
-        Some(&root.state)
-    }
-
-    fn whole_driver(&mut self, mut driver: DriverState<D>) -> DriverState<D> {
-        // The displacements at the start of the quasi-static solver's last committed step
-        // (its predictor's), of every node in the global order.
-        let previous = driver
-            .quasi_static
-            .as_mut()
-            .and_then(|m| m.previous.as_mut());
-        if let Some((_, u)) = previous {
-            let local: Vec<f64> = u[..self.owned]
-                .iter()
-                .flat_map(|v| v.iter().copied())
-                .collect();
-            if let Some(all) = self.ranks.gather(&local) {
-                *u = all
-                    .chunks_exact(D)
-                    .map(Vector::<D>::from_column_slice)
-                    .collect();
-            }
-        }
-        driver
     }
 }
 
+/// Each section of a checkpoint's arrays ([`Section::ALL`]) from every rank in rank order
+/// into `w` on rank 0 (`None` on the others, and on rank 0 when its file could not be
+/// opened): one rank's part at a time, so rank 0 holds one part, not the whole body's
+/// arrays. The ranks' parts follow each other in the global order (a rank's rows and nodes
+/// come after the ranks' before it). After a failed write the parts are still taken.
+fn stream_sections<const D: usize, W: Write>(
+    ranks: &dyn Ranks,
+    state: &State<D>,
+    driver: &DriverState<D>,
+    owned: usize,
+    mut w: Option<&mut W>,
+) -> std::io::Result<()> {
+    let mut failed = None;
+    for section in Section::ALL {
+        let mut part = Vec::new();
+        write_section(section, state, driver, owned, &mut part)?;
+        let words = bytes_to_words(&part);
+        drop(part);
+        ranks.gather_each(&words, &mut |words| {
+            if let (Some(w), None) = (w.as_deref_mut(), &failed) {
+                let (bytes, _) = bytes_from_words(words);
+                if let Err(e) = w.write_all(&bytes) {
+                    failed = Some(e);
+                }
+            }
+        });
+    }
+    failed.map_or(Ok(()), Err)
+}
+
 impl<const D: usize> Gather<D> {
+    /// The whole body's array sizes of a checkpoint from every rank's (every rank calls it):
+    /// a rank's node arrays hold its ghosts too, its bond arrays only its rows.
+    fn whole_sizes(&self, state: &State<D>, driver: &DriverState<D>) -> Sizes {
+        let ranks = &*self.ranks;
+        let local = Sizes::of(state, driver);
+        let nodes = ranks.sum_u64(self.owned as u64) as usize;
+        // Every rank keeps the previous evaluation and the predictor or none.
+        let all_or_none = |n: usize| if n > 0 { nodes } else { 0 };
+        Sizes {
+            nodes,
+            entries: ranks.sum_u64(local.entries as u64) as usize,
+            history: ranks.sum_u64(local.history as u64) as usize,
+            previous: all_or_none(local.previous),
+            matrices: local.matrices / local.nodes.max(1) * nodes,
+            predictor: all_or_none(local.predictor),
+        }
+    }
+
     /// Every rank's owned nodes' u, v, y, f, b (and `extra` words) into rank 0's whole
     /// state; the gathered words on rank 0.
     fn gather_nodes(&mut self, state: &State<D>, extra: &[&[f64]]) -> Option<Vec<f64>> {
@@ -300,23 +322,8 @@ impl<const D: usize> Gather<D> {
             (s.u[i], s.v[i], s.current[i], s.force[i], s.body_force[i]) =
                 (v(0), v(1), v(2), v(3), v(4));
         }
-        s.step_like(state);
+        s.step_scalars_from(state);
         Some(all)
-    }
-}
-
-impl<const D: usize> State<D> {
-    /// Takes `other`'s scalars (time, step, the counts and energies booked so far), the same
-    /// on every rank.
-    fn step_like(&mut self, other: &State<D>) {
-        self.time = other.time;
-        self.step = other.step;
-        self.broken = other.broken;
-        self.external_work = other.external_work;
-        self.dissipated_viscous = other.dissipated_viscous;
-        self.dissipated_damage = other.dissipated_damage;
-        self.dt = other.dt;
-        self.iterations = other.iterations;
     }
 }
 

@@ -21,6 +21,7 @@ pub struct MpiRanks {
 const CHAIN_TAG: i32 = 11;
 const HALO_TAG: i32 = 12;
 const SCATTER_TAG: i32 = 13;
+const GATHER_EACH_TAG: i32 = 14;
 
 impl MpiRanks {
     /// The world of an initialised MPI.
@@ -172,6 +173,21 @@ impl Ranks for MpiRanks {
             root.gather_into(&count);
             root.gather_varcount_into(local);
             None
+        }
+    }
+
+    fn gather_each(&self, local: &[f64], each: &mut dyn FnMut(&[f64])) {
+        let w = SimpleCommunicator::world();
+        if self.rank == 0 {
+            each(local);
+            for r in 1..self.size {
+                let (part, _) = w
+                    .process_at_rank(r as i32)
+                    .receive_vec_with_tag::<f64>(GATHER_EACH_TAG);
+                each(&part);
+            }
+        } else {
+            w.process_at_rank(0).send_with_tag(local, GATHER_EACH_TAG);
         }
     }
 

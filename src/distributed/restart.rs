@@ -1,17 +1,17 @@
 //! Continuing a distributed run from its checkpoint (`--restart`), on any number of ranks:
 //! `checkpoint.bin` is the file one process writes whatever the number of ranks that wrote
-//! it, so rank 0 reads it whole (into a state of the whole body, with every check of
-//! `checkpoint::restore`) and sends each rank its part: the scalars of the state and of the
-//! driver (the same on every rank: the adaptive step's controller, the stage in progress, the
-//! quasi-static solver's increment, largest load and iteration count, the impactors' motion
-//! and penalty energy), its owned nodes' u, v, y, f and b, the quasi-static predictor's last
-//! displacements and a non-central model's previous positions and own-half matrices, and its
-//! rows' bond status and history (a rank's rows are contiguous in the global order: they
-//! follow the rows of the ranks before it). The ghosts then take their owners' u, v and y
-//! (and previous positions) by the halo exchange, not from the file. Rank 0 holds the file, the whole state and one rank's part
-//! at once: O(N) on rank 0 (about twice the checkpoint's size), as its output already is.
+//! it, so rank 0 opens it (with every check of `checkpoint::restore`: program, deck, sizes,
+//! length, checksum) and reads each rank's part from it in turn: the scalars of the state and
+//! of the driver (the same on every rank: the adaptive step's controller, the stage in
+//! progress, the quasi-static solver's increment, largest load and iteration count, the
+//! impactors' motion and penalty energy), its owned nodes' u, v, y, f and b, the quasi-static
+//! predictor's last displacements and a non-central model's previous positions and own-half
+//! matrices, and its rows' bond status and history (a rank's rows are contiguous in the
+//! global order: they follow the rows of the ranks before it). The ghosts then take their
+//! owners' u, v and y (and previous positions) by the halo exchange, not from the file. Rank
+//! 0 holds one rank's part at a time, never the whole body's arrays.
 
-use crate::checkpoint::{DriverState, Origin};
+use crate::checkpoint::{DriverState, Origin, Parts, Section, Sizes};
 use crate::material::Material;
 use crate::math::Vector;
 use crate::run::{RunControl, RunError};
@@ -74,26 +74,36 @@ pub fn restore<const D: usize, M: Material<D>>(
         entries: state.status.len(),
         history: state.history.len(),
     };
-    let whole = ranks
-        .gather(&mine.words())
-        .map(|words| read_whole::<D>(out, origin, &Rows::from_words(&words), kept));
-    let refused = match &whole {
+    let opened = ranks.gather(&mine.words()).map(|words| {
+        let rows = Rows::from_words(&words);
+        open::<D>(out, origin, &rows, kept).map(|parts| (parts, rows))
+    });
+    let refused = match &opened {
         Some(Err(e)) => Some(e.to_string()),
         _ => None,
     };
     if let Some(message) = ranks.first_message(refused) {
-        return Err(match whole {
+        return Err(match opened {
             Some(Err(e)) => e,
             _ => RunError::Distributed(message),
         });
     }
+    let mut opened = opened.and_then(Result::ok);
     let part = ranks.scatter(&mut |r| {
-        let (state, driver, rows) = whole
-            .as_ref()
-            .and_then(|w| w.as_ref().ok())
-            .expect("rank 0 read the checkpoint");
-        part_of(state, driver, rows, r)
+        let (parts, rows) = opened.as_mut().expect("rank 0 opened the checkpoint");
+        // A read that fails after the checks: an empty part, refused on its rank.
+        part_of(parts, rows, r).unwrap_or_default()
     });
+    let unread = part.is_empty().then(|| {
+        format!(
+            "rank {} could not read its part of {}",
+            ranks.rank(),
+            out.join(crate::checkpoint::FILE_NAME).display()
+        )
+    });
+    if let Some(message) = ranks.first_message(unread) {
+        return Err(RunError::Distributed(message));
+    }
     let driver = unpack(&part, state, share.owned);
     share.halo.exchange(ranks, state);
     // A ghost's previous position is read by its neighbours' work increments (its
@@ -140,61 +150,34 @@ impl Rows {
     }
 }
 
-/// On rank 0: the whole body's state, the driver state and every rank's rows.
-type Whole<const D: usize> = (State<D>, DriverState<D>, Vec<Rows>);
-
-/// Rank 0: the whole body's state and the driver state from the checkpoint, for ranks of
-/// `rows` (in rank order).
-fn read_whole<const D: usize>(
+/// Rank 0: the checkpoint opened for reading by parts, for ranks of `rows` (in rank order).
+fn open<const D: usize>(
     out: &Path,
     origin: &Origin,
     rows: &[Rows],
     kept: Kept,
-) -> Result<Whole<D>, RunError> {
+) -> Result<Parts<D>, RunError> {
     let sum = |f: fn(&Rows) -> usize| rows.iter().map(f).sum::<usize>();
     let nodes = sum(|r| r.owned);
-    let mut whole = sized::<D>(nodes, sum(|r| r.entries), sum(|r| r.history));
-    if kept.previous {
-        whole.previous = vec![Vector::<D>::zeros(); nodes];
-    }
-    whole.previous_matrices = vec![0.0; nodes * kept.matrix_words];
+    let expected = Sizes {
+        nodes,
+        entries: sum(|r| r.entries),
+        history: sum(|r| r.history),
+        previous: if kept.previous { nodes } else { 0 },
+        matrices: nodes * kept.matrix_words,
+        predictor: 0,
+    };
     let path = out.join(crate::checkpoint::FILE_NAME);
-    let driver = crate::checkpoint::restore(&path, origin, &mut whole)?;
-    Ok((whole, driver, rows.to_vec()))
+    Ok(Parts::open(&path, origin, &expected)?)
 }
 
-/// A state of `nodes` nodes, `entries` bond entries and `history` history words, zeroed.
-fn sized<const D: usize>(nodes: usize, entries: usize, history: usize) -> State<D> {
-    let vectors = || vec![Vector::<D>::zeros(); nodes];
-    State {
-        time: 0.0,
-        step: 0,
-        u: vectors(),
-        v: vectors(),
-        current: vectors(),
-        force: vectors(),
-        body_force: vectors(),
-        status: vec![0; entries],
-        history: vec![0.0; history],
-        previous: Vec::new(),
-        previous_matrices: Vec::new(),
-        broken: 0,
-        external_work: 0.0,
-        dissipated_viscous: 0.0,
-        dissipated_damage: 0.0,
-        dt: 0.0,
-        iterations: 0,
-    }
-}
-
-/// Rank `r`'s part of the whole state: the scalars, its owned nodes' vectors, its entries'
+/// Rank `r`'s part of the checkpoint: the scalars, its owned nodes' vectors, its entries'
 /// status and history (u64 scalars and status bytes carried as f64: exact).
 fn part_of<const D: usize>(
-    whole: &State<D>,
-    driver: &DriverState<D>,
+    parts: &mut Parts<D>,
     rows: &[Rows],
     r: usize,
-) -> Vec<f64> {
+) -> std::io::Result<Vec<f64>> {
     let Rows {
         first,
         owned,
@@ -203,8 +186,9 @@ fn part_of<const D: usize>(
     } = rows[r];
     let entries_first: usize = rows[..r].iter().map(|x| x.entries).sum();
     let history_first: usize = rows[..r].iter().map(|x| x.history).sum();
+    let (whole, driver) = (parts.scalars(), parts.driver());
     let qs = driver.quasi_static.as_ref();
-    let previous = qs.and_then(|m| m.previous.as_ref());
+    let predictor = parts.predictor_time();
     let mut part =
         Vec::with_capacity(HEAD + QUASI_STATIC + owned * 6 * D + 1 + entries.div_ceil(8) + history);
     part.extend([
@@ -229,8 +213,8 @@ fn part_of<const D: usize>(
         qs.map_or(0.0, |m| m.increment),
         qs.map_or(0.0, |m| m.largest_load),
         f64::from_bits(qs.map_or(0, |m| m.iterations)),
-        previous.is_some() as u8 as f64,
-        previous.map_or(0.0, |p| p.0),
+        predictor.is_some() as u8 as f64,
+        predictor.unwrap_or(0.0),
     ]);
     for im in &driver.impactors {
         for x in [&im.position, &im.velocity, &im.force] {
@@ -238,32 +222,43 @@ fn part_of<const D: usize>(
         }
         part.push(im.energy);
     }
-    for a in [
-        &whole.u,
-        &whole.v,
-        &whole.current,
-        &whole.force,
-        &whole.body_force,
+    let words = |bytes: Vec<u8>| -> Vec<f64> {
+        bytes
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect()
+    };
+    for section in [
+        Section::U,
+        Section::V,
+        Section::Current,
+        Section::Force,
+        Section::BodyForce,
     ] {
-        for x in &a[first..first + owned] {
-            part.extend_from_slice(x.as_slice());
-        }
+        part.extend(words(parts.read(section, first, owned)?));
     }
-    if let Some((_, u)) = previous {
-        for x in &u[first..first + owned] {
-            part.extend_from_slice(x.as_slice());
-        }
+    if predictor.is_some() {
+        part.extend(words(parts.read(Section::Predictor, first, owned)?));
     }
-    // A non-central model's previous evaluation: its owned nodes' positions and matrices.
-    for x in whole.previous.get(first..first + owned).unwrap_or_default() {
-        part.extend_from_slice(x.as_slice());
-    }
-    let words = whole.previous_matrices.len() / whole.u.len().max(1);
-    part.extend_from_slice(&whole.previous_matrices[first * words..(first + owned) * words]);
-    let status = &whole.status[entries_first..entries_first + entries];
-    part.extend(bytes_to_words(status));
-    part.extend_from_slice(&whole.history[history_first..history_first + history]);
-    part
+    // A non-central model's previous evaluation: its owned nodes' positions and matrices
+    // (none in the file when the model keeps none).
+    part.extend(words(parts.read(Section::Previous, first, owned)?));
+    part.extend(words(parts.read(
+        Section::PreviousMatrices,
+        first,
+        owned,
+    )?));
+    part.extend(bytes_to_words(&parts.read(
+        Section::Status,
+        entries_first,
+        entries,
+    )?));
+    part.extend(words(parts.read(
+        Section::History,
+        history_first,
+        history,
+    )?));
+    Ok(part)
 }
 
 /// Sets a rank's `state` (its `owned` nodes first) from its part; the driver state.
@@ -350,6 +345,30 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
 mod tests {
     use super::*;
 
+    /// A state of `nodes` nodes, `entries` bond entries and `history` history words, zeroed.
+    fn sized<const D: usize>(nodes: usize, entries: usize, history: usize) -> State<D> {
+        State {
+            u: vec![Vector::<D>::zeros(); nodes],
+            v: vec![Vector::<D>::zeros(); nodes],
+            current: vec![Vector::<D>::zeros(); nodes],
+            force: vec![Vector::<D>::zeros(); nodes],
+            body_force: vec![Vector::<D>::zeros(); nodes],
+            status: vec![0; entries],
+            history: vec![0.0; history],
+            ..State::empty()
+        }
+    }
+
+    /// The checkpoint of `whole` and `driver` as one process writes it, opened by parts.
+    fn parts(whole: &State<2>, driver: &DriverState<2>, tag: &str) -> Parts<2> {
+        let dir = crate::atomic_file::test_dir(tag);
+        let path = dir.join(crate::checkpoint::FILE_NAME);
+        let origin = Origin::new("a deck", Path::new("t.toml"));
+        crate::checkpoint::write(&path, &origin, whole, driver).expect("written");
+        let expected = Sizes::of(whole, &DriverState::default());
+        Parts::open(&path, &origin, &expected).expect("opened")
+    }
+
     /// A whole state of 7 nodes whose every number tells where it is.
     fn whole() -> State<2> {
         let mut s = sized::<2>(7, 20, 40);
@@ -395,11 +414,16 @@ mod tests {
         });
         let words: Vec<f64> = rows.iter().flat_map(|(r, _)| r.words()).collect();
         let all = Rows::from_words(&words);
+        let mut parts = parts(&whole, &driver, "restart-rows");
         let (mut entry, mut word) = (0, 0);
         for (r, (mine, ghosts)) in rows.iter().enumerate() {
             assert_eq!(all[r], *mine);
             let mut local = sized::<2>(mine.owned + ghosts, mine.entries, mine.history);
-            let got = unpack(&part_of(&whole, &driver, &all, r), &mut local, mine.owned);
+            let got = unpack(
+                &part_of(&mut parts, &all, r).unwrap(),
+                &mut local,
+                mine.owned,
+            );
             assert_eq!(got, driver);
             let nodes = mine.first..mine.first + mine.owned;
             assert_eq!(local.u[..mine.owned], whole.u[nodes.clone()]);
@@ -446,9 +470,14 @@ mod tests {
             history: whole_history,
             ..whole
         };
+        let mut with_point = parts(&whole, &driver, "restart-predictor");
         for (r, mine) in all.iter().enumerate() {
             let mut local = sized::<2>(mine.owned + 1, 0, 0);
-            let got = unpack(&part_of(&whole, &driver, &all, r), &mut local, mine.owned);
+            let got = unpack(
+                &part_of(&mut with_point, &all, r).unwrap(),
+                &mut local,
+                mine.owned,
+            );
             let memory = got.quasi_static.as_ref().expect("a memory");
             let (t, u) = memory.previous.as_ref().expect("a predictor's point");
             assert_eq!(*t, 9e-7);
@@ -460,7 +489,8 @@ mod tests {
         // Before the first committed load step: no predictor's point.
         driver.quasi_static.as_mut().unwrap().previous = None;
         let mut local = sized::<2>(3, 0, 0);
-        let got = unpack(&part_of(&whole, &driver, &all, 0), &mut local, 3);
+        let mut without = parts(&whole, &driver, "restart-no-predictor");
+        let got = unpack(&part_of(&mut without, &all, 0).unwrap(), &mut local, 3);
         assert_eq!(got, driver);
     }
 
@@ -492,12 +522,17 @@ mod tests {
                 history: 2 * e,
             })
             .collect();
+        let mut parts = parts(&whole, &driver, "restart-impactors");
         for (r, (mine, &(_, _, _, ghosts))) in all.iter().zip(&rows).enumerate() {
             let nodes = mine.owned + ghosts;
             let mut local = sized::<2>(nodes, mine.entries, mine.history);
             local.previous = vec![Vector::<2>::zeros(); nodes];
             local.previous_matrices = vec![0.0; nodes * 3];
-            let got = unpack(&part_of(&whole, &driver, &all, r), &mut local, mine.owned);
+            let got = unpack(
+                &part_of(&mut parts, &all, r).unwrap(),
+                &mut local,
+                mine.owned,
+            );
             assert_eq!(got, driver);
             let owned = mine.first..mine.first + mine.owned;
             assert_eq!(local.previous[..mine.owned], whole.previous[owned.clone()]);

@@ -158,6 +158,15 @@ impl Ranks for ThreadRanks {
     fn all_gather(&self, local: &[f64]) -> Vec<f64> {
         self.everyone(local).concat()
     }
+    fn gather_each(&self, local: &[f64], each: &mut dyn FnMut(&[f64])) {
+        if self.rank != 0 {
+            return self.send(0, Kind::Collective, local.to_vec());
+        }
+        each(local);
+        for from in 1..self.size {
+            each(&self.receive(from, Kind::Collective));
+        }
+    }
     fn scatter(&self, part: &mut dyn FnMut(usize) -> Vec<f64>) -> Vec<f64> {
         if self.rank != 0 {
             return self.receive(0, Kind::Collective);

@@ -520,14 +520,15 @@ pub trait ViewSource<const D: usize> {
         stage_end: bool,
     ) -> Result<(), RunError>;
 
-    /// The whole body's state for a checkpoint, on the process that writes it (`None` on
-    /// the others); every rank calls it when a checkpoint falls due.
-    fn whole_state(&mut self, state: &State<D>) -> Option<&State<D>>;
-
-    /// The whole body's driver state for a checkpoint from this rank's `driver` (the
-    /// quasi-static solver's memory holds per-node displacements), on the process that
-    /// writes it; every rank calls it when a checkpoint falls due.
-    fn whole_driver(&mut self, driver: DriverState<D>) -> DriverState<D>;
+    /// Writes the checkpoint of the whole body from this rank's `state` and `driver` and
+    /// the other ranks' (the quasi-static solver's memory holds per-node displacements);
+    /// every rank calls it when a checkpoint falls due.
+    fn write_checkpoint(
+        &mut self,
+        checkpoints: &Checkpoints,
+        state: &State<D>,
+        driver: &DriverState<D>,
+    ) -> Result<(), RunError>;
 }
 
 impl<'a, const D: usize> Watch<'a, D> {
@@ -620,12 +621,7 @@ impl<'a, const D: usize> Watch<'a, D> {
             let driver = self.at.driver_state(sim, driver(sim));
             match self.source.as_deref_mut() {
                 None => c.write(&sim.state, &driver)?,
-                Some(source) => {
-                    let driver = source.whole_driver(driver);
-                    if let Some(whole) = source.whole_state(&sim.state) {
-                        c.write(whole, &driver)?;
-                    }
-                }
+                Some(source) => source.write_checkpoint(c, &sim.state, &driver)?,
             }
             sim.counters.observe += started.elapsed();
         }

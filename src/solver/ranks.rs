@@ -44,6 +44,9 @@ pub trait Ranks: Send + Sync {
     fn first_message(&self, local: Option<String>) -> Option<String>;
     /// Every rank's `local` on rank 0, in rank order (`None` on the others).
     fn gather(&self, local: &[f64]) -> Option<Vec<f64>>;
+    /// Every rank's `local` handed to `each` on rank 0, in rank order, one rank's at a time
+    /// (rank 0 never holds two); the other ranks only send theirs.
+    fn gather_each(&self, local: &[f64], each: &mut dyn FnMut(&[f64]));
     /// Rank 0's `x` on every rank.
     fn broadcast_bool(&self, x: bool) -> bool;
     /// Rank r's part from rank 0: rank 0 calls `part(r)` for every rank, one at a time (so it
