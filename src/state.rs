@@ -63,25 +63,7 @@ pub struct State<const D: usize> {
 /// arrays each time, tens of MB per step.
 impl<const D: usize> Clone for State<D> {
     fn clone(&self) -> Self {
-        let mut copy = State {
-            time: 0.0,
-            step: 0,
-            u: Vec::new(),
-            v: Vec::new(),
-            current: Vec::new(),
-            force: Vec::new(),
-            body_force: Vec::new(),
-            status: Vec::new(),
-            history: Vec::new(),
-            previous: Vec::new(),
-            previous_matrices: Vec::new(),
-            broken: 0,
-            external_work: 0.0,
-            dissipated_viscous: 0.0,
-            dissipated_damage: 0.0,
-            dt: 0.0,
-            iterations: 0,
-        };
+        let mut copy = State::empty();
         copy.clone_from(self);
         copy
     }
