@@ -175,8 +175,8 @@ fn ranks() -> Option<(
     }
 }
 
-/// `peridyn run` over ranks: rank 0 prints; an error every rank meets (the deck, a feature
-/// not yet distributed, a refused checkpoint, an unstable step) ends every rank, any other (a
+/// `peridyn run` over ranks: rank 0 prints; an error every rank meets (the deck, too few
+/// nodes for the ranks, a refused checkpoint, an unstable step) ends every rank, any other (a
 /// file rank 0 cannot write) aborts the others, which may be waiting for it.
 #[cfg(feature = "mpi")]
 fn run_distributed(

@@ -145,22 +145,17 @@ fn whole_constitution_reports<const D: usize>(
     }
 }
 
-/// Refuses a body too small to give every rank a node chunk.
+/// Refuses a body too small to give every rank a node chunk (a rank owns whole chunks of
+/// the force loop, so that its sums are the one process's).
 fn too_few(ld: &LoadedDeck, nodes: usize, ranks: usize) -> crate::deck::DeckError {
-    not_distributed(
-        ld,
-        &format!(
-            "a body of {nodes} nodes on {ranks} ranks (each rank needs at least {} nodes)",
-            crate::solver::forces::NODE_CHUNK
-        ),
-        ranks,
-    )
-}
-
-fn not_distributed(ld: &LoadedDeck, what: &str, ranks: usize) -> crate::deck::DeckError {
+    let chunk = crate::solver::forces::NODE_CHUNK;
     ld.locate(vec![crate::deck::DeckIssue::new(
         "discretization",
-        format!("{what} is not yet distributed: run it on 1 rank (this run has {ranks})"),
+        format!(
+            "a body of {nodes} nodes cannot be shared by {ranks} ranks: each rank owns whole \
+             chunks of {chunk} nodes, and this body has {}; run it on at most that many ranks",
+            nodes.div_ceil(chunk)
+        ),
     )])
 }
 

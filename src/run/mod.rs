@@ -48,8 +48,8 @@ pub enum RunError {
     Threads(String),
     #[error("{0}")]
     Checkpoint(#[from] CheckpointError),
-    /// A distributed run cannot do what the deck asks (a feature not yet distributed, too
-    /// few nodes for the ranks).
+    /// A distributed run cannot go on: another rank refused a checkpoint or could not read
+    /// its part, or could not write a snapshot piece or the checkpoint.
     #[error("{0}")]
     Distributed(String),
     /// The run stopped after this step as `RunControl::stop_after_step` asked.
