@@ -445,6 +445,14 @@ impl<const D: usize> QuasiStatic<D> {
         }
     }
 
+    /// Swaps the body's no-fail flags with `frozen` (every node protected) and back: while
+    /// every node is protected no bond breaks or softens, and a distributed force evaluation
+    /// need not ask the other ranks how many broke (every rank relaxes at the same time).
+    fn toggle_protection<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) {
+        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        sim.engine.all_protected = !sim.engine.all_protected;
+    }
+
     /// Moves the body to the start of a load step ending at `t1`: the predictor's
     /// extrapolated increment on the free components, the boundary values at t1.
     fn start_step<M: Material<D>>(&self, sim: &mut Simulation<D, M>, t1: f64) {
@@ -488,7 +496,7 @@ impl<const D: usize> QuasiStatic<D> {
         let (t0, u0) = (sim.state.time, sim.state.u.clone());
         let t1 = t0 + self.increment;
         self.start_step(sim, t1);
-        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        self.toggle_protection(sim);
         let max = std::mem::replace(&mut self.settings.max_iterations, budget);
         let result = (|| {
             sim.refresh_forces()?;
@@ -497,7 +505,7 @@ impl<const D: usize> QuasiStatic<D> {
             Ok::<_, StepError>((start_residual, relaxed))
         })();
         self.settings.max_iterations = max;
-        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        self.toggle_protection(sim);
         let (start_residual, relaxed) = result?;
         let residual = self.residual(sim).0;
         let (iterations, converged) = match relaxed {
@@ -536,7 +544,7 @@ impl<const D: usize> QuasiStatic<D> {
         let mut report = LoadStepReport::default();
         self.ticker.begin(sim.state.step + 1, t1);
         // Forces at the new boundary values, nothing deciding.
-        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        self.toggle_protection(sim);
         let mut record = WorkRecord::of(&sim.state);
         let result = (|| {
             sim.refresh_forces()?;
@@ -546,9 +554,9 @@ impl<const D: usize> QuasiStatic<D> {
                 report.iterations += self.relax(sim)?;
                 record.restore(&mut sim.state);
                 // The decision, with the user's no-fail sets.
-                std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+                self.toggle_protection(sim);
                 let broken = sim.refresh_forces();
-                std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+                self.toggle_protection(sim);
                 let broken = broken?;
                 record.keep(&sim.state);
                 report.broken += broken;
@@ -568,7 +576,7 @@ impl<const D: usize> QuasiStatic<D> {
                 }
             }
         })();
-        std::mem::swap(&mut sim.body.no_fail, &mut self.frozen);
+        self.toggle_protection(sim);
         self.iterations += report.iterations;
         if !result? {
             self.ticker.end(&report, false);
@@ -748,40 +756,25 @@ impl<const D: usize> QuasiStatic<D> {
         Ok((rho, evaluations))
     }
 
-    /// One ADR relaxation (see the module docs) with the masses in use.
+    /// One ADR relaxation (see the module docs) with the masses in use. Each iteration
+    /// takes the residual and the next damping coefficient in one pass over the nodes (one
+    /// exchange between ranks, not two: the damping of iteration n + 1 reads only what the
+    /// forces of iteration n left).
     fn adr<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
         let tol = self.settings.tolerance;
-        let mut residual = self.residual(sim).0;
-        let start_residual = residual;
         // The owned nodes: the ghosts take their owners' displacements at each evaluation.
         let owned = sim.owned();
+        self.out_of_balance(sim);
+        let mut residual = self.residual(sim).0;
+        let start_residual = residual;
+        let mut c = 0.0;
         let mut n = 0u64;
         while residual > tol {
             if n >= self.settings.max_iterations {
                 return Err(self.not_converged(sim, n, residual));
             }
-            // Out-of-balance acceleration F/λ on the free components.
-            let (s, mask, mass) = (&sim.state, &sim.constrained_mask, &self.mass);
-            self.acceleration[..owned]
-                .par_iter_mut()
-                .enumerate()
-                .with_min_len(4096)
-                .for_each(|(i, a)| {
-                    *a = Vector::<D>::from_fn(|k, _| {
-                        if mask[i][k] || mass[i] <= 0.0 {
-                            0.0
-                        } else {
-                            (s.force[i][k] + s.body_force[i][k]) / mass[i]
-                        }
-                    })
-                });
-            let first = n == 0;
             // The first iteration starts from rest: v^{½} = F^0/(2λ).
-            let c = if first {
-                0.0
-            } else {
-                self.damping(sim, &self.acceleration)
-            };
+            let first = n == 0;
             let (velocity, previous, accel) = (
                 &mut self.velocity[..owned],
                 &mut self.previous_acceleration[..owned],
@@ -811,7 +804,8 @@ impl<const D: usize> QuasiStatic<D> {
                 });
             sim.refresh_forces()?;
             n += 1;
-            residual = self.residual(sim).0;
+            self.out_of_balance(sim);
+            (residual, c) = self.residual_and_damping(sim);
             self.ticker.tick(n, residual);
             if !residual.is_finite() || residual > 1e6 * start_residual.max(tol) {
                 sim.check_finite()?;
@@ -821,17 +815,38 @@ impl<const D: usize> QuasiStatic<D> {
         Ok(n)
     }
 
-    /// c_n = 2 sqrt(uᵀKu / uᵀu) from the local diagonal stiffness (Kilic & Madenci 2010),
-    /// 0 when not positive, at most 2; sums in fixed chunks of the node order (the same for
-    /// any thread or rank count).
-    fn damping<M: Material<D>>(&self, sim: &Simulation<D, M>, accel: &[Vector<D>]) -> f64 {
+    /// The out-of-balance acceleration F/λ on the free components of the owned nodes.
+    fn out_of_balance<M: Material<D>>(&mut self, sim: &Simulation<D, M>) {
+        let (s, mask, mass) = (&sim.state, &sim.constrained_mask, &self.mass);
+        self.acceleration[..sim.owned()]
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(i, a)| {
+                *a = Vector::<D>::from_fn(|k, _| {
+                    if mask[i][k] || mass[i] <= 0.0 {
+                        0.0
+                    } else {
+                        (s.force[i][k] + s.body_force[i][k]) / mass[i]
+                    }
+                })
+            });
+    }
+
+    /// The relative residual (as `residual`) and the damping c_n = 2 sqrt(uᵀKu / uᵀu) from
+    /// the local diagonal stiffness (Kilic & Madenci 2010), 0 when not positive, at most 2;
+    /// the four sums in fixed chunks of the node order (the same for any thread or rank
+    /// count), each added exactly as on its own.
+    fn residual_and_damping<M: Material<D>>(&self, sim: &Simulation<D, M>) -> (f64, f64) {
         let (u, v, p) = (&sim.state.u, &self.velocity, &self.previous_acceleration);
-        let [num, den] = chunked_sums(
+        let accel = &self.acceleration;
+        let [free, held, num, den] = chunked_sums(
             sim.share.as_deref(),
             sim.owned(),
             RESIDUAL_CHUNK,
-            [0.0, 0.0],
-            |i, [num, den]| {
+            [0.0; 4],
+            |i, [free, held, num, den]| {
+                add_residual_terms(sim, i, free, held);
                 for k in 0..D {
                     if v[i][k] != 0.0 {
                         let stiffness = -(accel[i][k] - p[i][k]) / v[i][k];
@@ -841,11 +856,12 @@ impl<const D: usize> QuasiStatic<D> {
                 }
             },
         );
-        if num > 0.0 && den > 0.0 {
+        let c = if num > 0.0 && den > 0.0 {
             (2.0 * (num / den).sqrt()).min(2.0)
         } else {
             0.0
-        }
+        };
+        (relative_of(free, held, self.largest_load).0, c)
     }
 
     /// The relative residual, and the squared norm of the loading forces it is measured
@@ -922,25 +938,40 @@ fn relative_residual<const D: usize, M: Material<D>>(
     sim: &Simulation<D, M>,
     largest_load: f64,
 ) -> (f64, f64) {
-    let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
     let [free, held] = chunked_sums(
         sim.share.as_deref(),
         sim.owned(),
         RESIDUAL_CHUNK,
         [0.0, 0.0],
-        |i, [free, held]| {
-            *free += own_residual(sim, i);
-            for (k, &held_k) in mask[i].iter().take(D).enumerate() {
-                let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
-                if held_k {
-                    *held += f * f;
-                } else {
-                    let b = vol[i] * s.body_force[i][k];
-                    *held += b * b;
-                }
-            }
-        },
+        |i, [free, held]| add_residual_terms(sim, i, free, held),
     );
+    relative_of(free, held, largest_load)
+}
+
+/// Adds owned node i's terms to the residual's sums: |V (f + b)|² over its free components,
+/// and the loading's squared norm (V (f + b) over constrained components, V b over free ones).
+fn add_residual_terms<const D: usize, M: Material<D>>(
+    sim: &Simulation<D, M>,
+    i: usize,
+    free: &mut f64,
+    held: &mut f64,
+) {
+    let (s, mask, vol) = (&sim.state, &sim.constrained_mask, &sim.body.volumes);
+    *free += own_residual(sim, i);
+    for (k, &held_k) in mask[i].iter().take(D).enumerate() {
+        let f = vol[i] * (s.force[i][k] + s.body_force[i][k]);
+        if held_k {
+            *held += f * f;
+        } else {
+            let b = vol[i] * s.body_force[i][k];
+            *held += b * b;
+        }
+    }
+}
+
+/// The relative residual from the sums of `add_residual_terms`, and the loading's squared
+/// norm it is measured against.
+fn relative_of(free: f64, held: f64, largest_load: f64) -> (f64, f64) {
     // Against the largest loading of any equilibrium so far: once a crack has cut the
     // body and the reactions vanish, equilibrium is still judged at the scale of the loads
     // it carried.
