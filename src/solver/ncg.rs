@@ -86,12 +86,12 @@ impl<const D: usize> Ncg<D> {
             // Secant line search on η(α) = Π'(u + αd)·d = −r(u + αd)·d: a probe at σ0, then
             // the root of the line through the last two points, until the step is negligible.
             let d = &self.direction;
-            let dd = dot(d, d);
+            let [dd, rd] = dots(share.as_deref(), [(d, d), (&r, d)]);
             if dd == 0.0 {
                 break;
             }
             let sigma0 = 1e-3;
-            let (mut alpha_a, mut eta_a) = (0.0, -dot(&r, d));
+            let (mut alpha_a, mut eta_a) = (0.0, -rd);
             let eta0 = eta_a;
             self.shift(sim, d, sigma0)?;
             evaluations += 1;
@@ -119,9 +119,10 @@ impl<const D: usize> Ncg<D> {
             }
             r = self.residual(sim);
             let delta_old = delta_new;
-            let delta_mid = dot(&r, &s);
-            s = self.precondition(&r);
-            delta_new = dot(&r, &s);
+            let s_new = self.precondition(&r);
+            let delta_mid;
+            [delta_mid, delta_new] = dots(share.as_deref(), [(&r, &s), (&r, &s_new)]);
+            s = s_new;
             let beta = (delta_new - delta_mid) / delta_old;
             since_restart += 1;
             if since_restart >= n_free || beta <= 0.0 {
@@ -188,10 +189,22 @@ impl<const D: usize> Ncg<D> {
 /// `Iterator::sum` does and the chunks' sums then summed in order (the same for any thread
 /// or rank count).
 fn dot<const D: usize>(share: Option<&Share>, a: &[Vector<D>], b: &[Vector<D>]) -> f64 {
+    let [sum] = dots(share, [(a, b)]);
+    sum
+}
+
+/// `W` of `dot`'s sums in one pass (one exchange between ranks), each added exactly as `dot`
+/// adds it alone.
+fn dots<const D: usize, const W: usize>(
+    share: Option<&Share>,
+    pairs: [(&[Vector<D>], &[Vector<D>]); W],
+) -> [f64; W] {
     // `Iterator::sum`'s start (−0.0): the sums are its left folds.
     let zero: f64 = std::iter::empty::<f64>().sum();
-    let [sum] = chunked_sums(share, a.len().min(b.len()), CHUNK, [zero], |i, [acc]| {
-        *acc += a[i].dot(&b[i]);
-    });
-    sum
+    let n = pairs.iter().map(|(a, b)| a.len().min(b.len())).min().unwrap_or(0);
+    chunked_sums(share, n, CHUNK, [zero; W], |i, acc| {
+        for (sum, (a, b)) in acc.iter_mut().zip(&pairs) {
+            *sum += a[i].dot(&b[i]);
+        }
+    })
 }
