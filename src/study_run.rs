@@ -471,6 +471,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         }
         Some(Reduce::Final) => Reduction::Final,
         Some(Reduce::Max) => Reduction::Max,
+        Some(Reduce::Peak) => Reduction::Peak,
         Some(Reduce::Min) => Reduction::Min,
         Some(Reduce::MaxAbs) => Reduction::MaxAbs,
         Some(Reduce::FirstTimeAbove) => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),

@@ -154,6 +154,9 @@ pub enum Reduce {
     /// The last row's value.
     Final,
     Max,
+    /// The largest value, once the column has turned down after it (an ultimate load); a
+    /// run whose last row holds its largest value has not reached its peak and has none.
+    Peak,
     Min,
     /// The largest magnitude (a reaction force of either sign).
     MaxAbs,
@@ -501,7 +504,7 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     let Some(reduce) = o.reduce else {
         issue(
             "reduce",
-            "expected how the column becomes one number: final, max, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson or angle".into(),
+            "expected how the column becomes one number: final, max, peak, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson or angle".into(),
         );
         return issues;
     };

@@ -1,5 +1,5 @@
 //! The numbers a study reads from one run: a CSV table (header, rows of numbers) and the
-//! reductions that turn one of its columns into a scalar (final, max, min, max |·|, the time a
+//! reductions that turn one of its columns into a scalar (final, max, peak, min, max |·|, the time a
 //! level is first passed, the time of the largest value, the mean, the count of values, the
 //! Pearson correlation with a second column, the angle of a path's first part), optionally over a window of time, and a column's
 //! value at a given time.
@@ -18,6 +18,9 @@ pub struct Table {
 pub enum Reduction {
     Final,
     Max,
+    /// The largest value if the last row holds less (the curve has turned: a peak load);
+    /// none while the column is still at its largest at the end.
+    Peak,
     Min,
     MaxAbs,
     /// The `time` of the first row whose value exceeds the level.
@@ -117,6 +120,12 @@ impl Table {
         Ok(match how {
             Reduction::Final => values().next_back(),
             Reduction::Max => values().reduce(f64::max),
+            Reduction::Peak => {
+                let last = values().next_back();
+                values()
+                    .reduce(f64::max)
+                    .filter(|&m| last.is_some_and(|l| l < m))
+            }
             Reduction::Min => values().reduce(f64::min),
             Reduction::MaxAbs => values().map(f64::abs).reduce(f64::max),
             Reduction::FirstTimeAbove(level) => rows
@@ -236,6 +245,23 @@ mod tests {
             None
         );
         assert_eq!(r("broken_bonds", Reduction::Max, Some(-1.0)), None);
+    }
+
+    #[test]
+    fn a_peak_is_a_largest_value_the_column_has_turned_down_from() {
+        let t = Table::parse("time,load\n0,0\n1,5\n2,7\n3,6.5\n").unwrap();
+        let r = |until| {
+            t.reduce("load", Reduction::Peak, Window { from: None, until })
+                .unwrap()
+        };
+        assert_eq!(r(None), Some(7.0));
+        // Cut off while still rising (or at the top): no peak yet, where `max` has one.
+        assert_eq!(r(Some(2.0)), None);
+        assert_eq!(
+            t.reduce("load", Reduction::Max, Window { from: None, until: Some(2.0) })
+                .unwrap(),
+            Some(7.0)
+        );
     }
 
     #[test]
