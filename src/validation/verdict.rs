@@ -131,12 +131,27 @@ fn judge(
         // A bound holds run by run; a direction or a constant needs two runs to compare.
         let bound = matches!(trend, Trend::Below | Trend::Above);
         let fewest = if bound { 1 } else { 2 };
-        if values.len() < fewest || values.iter().any(|v| v.is_none()) {
-            row.note = if bound {
-                "Not every run of the series has a value.".into()
-            } else {
-                "The series has fewer than two measured runs.".into()
-            };
+        let without: Vec<String> = runs
+            .iter()
+            .zip(&values)
+            .filter(|(_, v)| v.is_none())
+            .map(|(run, _)| number(run.series.unwrap_or(f64::NAN)))
+            .collect();
+        if !without.is_empty() {
+            // Why a run has no value (a load still rising at its end) is the row's explanation.
+            row.note = format!(
+                "The run{} at {} gave no value of `{}`. {}",
+                if without.len() > 1 { "s" } else { "" },
+                without.join(" and "),
+                r.output,
+                r.explanation
+            )
+            .trim()
+            .to_string();
+            return row;
+        }
+        if values.len() < fewest {
+            row.note = "The series has fewer than two measured runs.".into();
             return row;
         }
         row.values = values.into_iter().flatten().collect();
