@@ -201,7 +201,11 @@ fn dots<const D: usize, const W: usize>(
 ) -> [f64; W] {
     // `Iterator::sum`'s start (−0.0): the sums are its left folds.
     let zero: f64 = std::iter::empty::<f64>().sum();
-    let n = pairs.iter().map(|(a, b)| a.len().min(b.len())).min().unwrap_or(0);
+    let n = pairs
+        .iter()
+        .map(|(a, b)| a.len().min(b.len()))
+        .min()
+        .unwrap_or(0);
     chunked_sums(share, n, CHUNK, [zero; W], |i, acc| {
         for (sum, (a, b)) in acc.iter_mut().zip(&pairs) {
             *sum += a[i].dot(&b[i]);

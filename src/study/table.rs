@@ -258,8 +258,15 @@ mod tests {
         // Cut off while still rising (or at the top): no peak yet, where `max` has one.
         assert_eq!(r(Some(2.0)), None);
         assert_eq!(
-            t.reduce("load", Reduction::Max, Window { from: None, until: Some(2.0) })
-                .unwrap(),
+            t.reduce(
+                "load",
+                Reduction::Max,
+                Window {
+                    from: None,
+                    until: Some(2.0)
+                }
+            )
+            .unwrap(),
             Some(7.0)
         );
     }
