@@ -10,6 +10,7 @@ pub mod bench;
 pub mod body;
 pub mod bonds;
 pub mod checkpoint;
+pub mod cli;
 pub mod counters;
 pub mod damage;
 pub mod deck;

@@ -6,12 +6,10 @@
 //! and writes every file, and hands each rank its part of a checkpoint to continue from
 //! (`restart`). Every feature of a one-process run runs distributed.
 //!
-//! Everything here but the transport is plain Rust; the transport (`mpi_ranks`, the `mpi`
-//! feature) is the only part that needs an MPI library.
+//! Everything here is plain Rust; the transport (`Ranks` over MPI) is the `mpi/` package's,
+//! the only part that needs an MPI library.
 
 pub mod gather;
-#[cfg(feature = "mpi")]
-pub mod mpi_ranks;
 pub mod partition;
 pub mod plan;
 pub mod restart;

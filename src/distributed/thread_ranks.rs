@@ -158,6 +158,9 @@ impl Ranks for ThreadRanks {
     fn all_gather(&self, local: &[f64]) -> Vec<f64> {
         self.everyone(local).concat()
     }
+    fn abort(&self, code: i32) -> ! {
+        panic!("rank {} aborted the group (code {code})", self.rank)
+    }
     fn gather_each(&self, local: &[f64], each: &mut dyn FnMut(&[f64])) {
         if self.rank != 0 {
             return self.send(0, Kind::Collective, local.to_vec());

@@ -1,6 +1,6 @@
 //! A simulation distributed over several processes (ranks): what a rank's share of the run
-//! needs of the others, as a trait (the transport, MPI, lives in `distributed/` behind the
-//! `mpi` feature), and the halo of ghost nodes a share reads.
+//! needs of the others, as a trait (the transport over MPI is the `mpi/` package's), and the
+//! halo of ghost nodes a share reads.
 //!
 //! A share owns a contiguous range of the global (Morton) node order; its local nodes are
 //! the owned ones first, in global order, then its ghosts (the nodes of other ranks that its
@@ -54,6 +54,9 @@ pub trait Ranks: Send + Sync {
     fn scatter(&self, part: &mut dyn FnMut(usize) -> Vec<f64>) -> Vec<f64>;
     /// Every rank's `local` on every rank, in rank order.
     fn all_gather(&self, local: &[f64]) -> Vec<f64>;
+    /// Ends every rank's process after an error on this one alone (the others may be waiting
+    /// for it in a collective).
+    fn abort(&self, code: i32) -> !;
 }
 
 /// One rank's share of a distributed run.

@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Runs each deck (by default every deck in tests/mpi) in one process and on 2 and 3 ranks
 # (mpirun), and compares every output file of the distributed runs with the single-process
-# run's, byte for byte (summary.txt without its wall-time lines). Needs a build with the `mpi`
-# feature:
-#   cargo build --release --features mpi && tests/mpi/compare.sh [DECK...]
+# run's, byte for byte (summary.txt without its wall-time lines). Needs the MPI program
+# (`peridyn-mpi`):
+#   cargo build --release -p peridyn-mpi && tests/mpi/compare.sh [DECK...]
 # As root, Open MPI needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-bin=${PERIDYN:-target/release/peridyn}
+bin=${PERIDYN:-target/release/peridyn-mpi}
 ranks=${RANKS:-"2 3"}
 if [ $# -eq 0 ]; then
   set -- tests/mpi/*.toml

@@ -7,11 +7,11 @@
 # By default a 2D deck with maps (every snapshot's fields gathered for them) and a 3D one
 # without maps, its snapshots at steps 134 and 268 (no other observer reads those: their fields
 # are never gathered). Needs a
-# build with the `mpi` feature:
-#   cargo build --release --features mpi && tests/mpi/pieces.sh [DECK[:key=value,...]...]
+# the MPI program (`peridyn-mpi`):
+#   cargo build --release -p peridyn-mpi && tests/mpi/pieces.sh [DECK[:key=value,...]...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-bin=${PERIDYN:-target/release/peridyn}
+bin=${PERIDYN:-target/release/peridyn-mpi}
 ranks=${RANKS:-"1 2 3"}
 if [ $# -eq 0 ]; then
   set -- tests/mpi/lps_energy_notched.toml tests/mpi/pmb_plate_3d.toml:png=false,history_interval=7,snapshots=3

@@ -7,12 +7,12 @@
 # under the adaptive time step, dt reduced; in the quasi-static run, its load increment split
 # and its predictor's last point set; in the staged run, inside its explicit release stage;
 # with impactors, the disk in contact and slowed; under the correspondence model's critical
-# energy, bonds breaking: each node's previous position and matrices kept). Needs a build with the `mpi` feature:
-#   cargo build --release --features mpi && tests/mpi/restart.sh [DECK...]
+# energy, bonds breaking: each node's previous position and matrices kept). Needs the MPI program (`peridyn-mpi`):
+#   cargo build --release -p peridyn-mpi && tests/mpi/restart.sh [DECK...]
 # As root, Open MPI needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-bin=${PERIDYN:-target/release/peridyn}
+bin=${PERIDYN:-target/release/peridyn-mpi}
 pairs=${PAIRS:-"2:3 3:1 1:2"}
 if [ $# -eq 0 ]; then
   set -- tests/mpi/lps_energy_notched.toml tests/mpi/pmb_energy_adaptive.toml \

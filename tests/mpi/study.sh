@@ -3,11 +3,11 @@
 # (by default tests/mpi/study/tiny_morris.toml) serially, then on 2 and 3 ranks, and compares
 # runs.csv and morris.csv with the serial study's byte for byte; then continues on 3 ranks a
 # copy of the serial study cut after its 2nd run (runs.csv as the serial study leaves it when
-# stopped there) and compares again. Needs a build with the `mpi` feature:
-#   cargo build --release --features mpi && tests/mpi/study.sh [STUDY...]
+# stopped there) and compares again. Needs the MPI program (`peridyn-mpi`):
+#   cargo build --release -p peridyn-mpi && tests/mpi/study.sh [STUDY...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-bin=${PERIDYN:-target/release/peridyn}
+bin=${PERIDYN:-target/release/peridyn-mpi}
 ranks=${RANKS:-"2 3"}
 if [ $# -eq 0 ]; then
   set -- tests/mpi/study/tiny_morris.toml

@@ -3,12 +3,12 @@
 //! calls come from whichever thread drives the run, one at a time (MPI initialised with
 //! `Threading::Serialized`).
 
-use crate::solver::ranks::Ranks;
 use mpi::collective::SystemOperation;
 use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use mpi::Count;
+use peridyn::solver::ranks::Ranks;
 
 /// The world's ranks.
 #[derive(Debug, Clone, Copy)]
@@ -31,12 +31,6 @@ impl MpiRanks {
             rank: w.rank() as usize,
             size: w.size() as usize,
         }
-    }
-
-    /// Ends every rank's process (after an error on one of them: the others may be
-    /// waiting for it in a collective).
-    pub fn abort(&self, code: i32) -> ! {
-        SimpleCommunicator::world().abort(code)
     }
 }
 
@@ -225,6 +219,10 @@ impl Ranks for MpiRanks {
             w.all_gather_varcount_into(local, &mut partition);
         }
         all
+    }
+
+    fn abort(&self, code: i32) -> ! {
+        SimpleCommunicator::world().abort(code)
     }
 }
 

@@ -1,0 +1,141 @@
+//! The commands a process started by `mpirun` on several ranks runs: `run` and `study`
+//! (`docs/distributed.md`). Rank 0 prints. An error every rank meets (the deck or study, too
+//! few nodes for the ranks, a refused checkpoint, an unstable step) ends every rank; any other
+//! (a file rank 0 cannot write) aborts the others, which may be waiting for it.
+
+use super::args::Command;
+use super::deck_name;
+use crate::deck::study::LoadedStudy;
+use crate::deck::LoadedDeck;
+use crate::run::{RunControl, RunError, RunOptions};
+use crate::solver::ranks::Ranks;
+use crate::study_run::{run_study_over, StudyOptions, StudyRunError};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+/// Runs `command` on this rank of `ranks`.
+pub(super) fn run_command(command: Command, ranks: Arc<dyn Ranks>) -> ExitCode {
+    let root = ranks.rank() == 0;
+    let refuse = |msg: String| {
+        if root {
+            eprintln!("error: {msg}");
+        }
+        ExitCode::FAILURE
+    };
+    match command {
+        Command::Study {
+            study,
+            output,
+            threads,
+            quiet,
+            dry_run: false,
+        } => {
+            let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&study)));
+            let opts = StudyOptions {
+                out_dir,
+                threads,
+                quiet,
+            };
+            match LoadedStudy::from_file(&study) {
+                Ok(ls) => study_over(&ls, &opts, ranks),
+                Err(e) => refuse(e.to_string()),
+            }
+        }
+        Command::Run {
+            deck,
+            output,
+            threads,
+            quiet,
+            restart,
+            stop_after_step,
+        } => {
+            let ld = match LoadedDeck::from_file(&deck) {
+                Ok(ld) => ld,
+                Err(e) => return refuse(e.to_string()),
+            };
+            if let (Some(o), Some(Some(r))) = (&output, &restart) {
+                if o != r {
+                    return refuse(format!("--restart {} and -o {} name different folders: a run continues in its own results folder; give one of them", r.display(), o.display()));
+                }
+            }
+            let out_dir = output
+                .or(restart.clone().flatten())
+                .unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
+            let opts = RunOptions {
+                out_dir,
+                threads,
+                quiet,
+            };
+            let control = RunControl {
+                restart: restart.is_some(),
+                stop_after_step,
+                ..RunControl::default()
+            };
+            run_over(&ld, &opts, &control, ranks)
+        }
+        _ => refuse("only `peridyn run` and `peridyn study` (not --dry-run) are distributed: start other commands without mpirun (or with -np 1)".into()),
+    }
+}
+
+/// `run` over the ranks.
+fn run_over(
+    ld: &LoadedDeck,
+    opts: &RunOptions,
+    control: &RunControl,
+    ranks: Arc<dyn Ranks>,
+) -> ExitCode {
+    let root = ranks.rank() == 0;
+    match crate::distributed::run_with(ld, opts, control, ranks.clone()) {
+        Ok(summary) => {
+            if root {
+                println!("{summary}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(
+            e @ (RunError::Deck(_)
+            | RunError::Distributed(_)
+            | RunError::Checkpoint(_)
+            | RunError::Step(_)
+            | RunError::Stopped(_)),
+        ) => {
+            if root {
+                eprintln!("error: {e}");
+            }
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error (rank {}): {e}", ranks.rank());
+            ranks.abort(1)
+        }
+    }
+}
+
+/// `study` over the ranks, each run on one rank; rank 0 writes the study's files.
+fn study_over(ls: &LoadedStudy, opts: &StudyOptions, ranks: Arc<dyn Ranks>) -> ExitCode {
+    let root = ranks.rank() == 0;
+    match run_study_over(ls, opts, Some(ranks.clone())) {
+        Ok(report) => {
+            if root {
+                println!("{report}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(
+            e @ (StudyRunError::Deck(_)
+            | StudyRunError::Design(_)
+            | StudyRunError::Point { .. }
+            | StudyRunError::Output { .. }),
+        ) => {
+            if root {
+                eprintln!("error: {e}");
+            }
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error (rank {}): {e}", ranks.rank());
+            ranks.abort(1)
+        }
+    }
+}
