@@ -14,7 +14,7 @@
 use crate::atomic_file::write_atomic;
 use crate::deck::edit::set_number;
 use crate::deck::study::{LoadedStudy, OutputSpec, Reduce, StudyMethod};
-use crate::deck::{DeckError, LoadedDeck};
+use crate::deck::{DeckError, KeyPath, LoadedDeck};
 use crate::distributed::study::{collect, rounds, Outcome};
 use crate::plot::curve::write_named_curves_png;
 use crate::plot::morris_plot::write_morris_png;
@@ -188,24 +188,48 @@ impl Design {
 }
 
 /// The deck of one design point: the base deck with the fixed numbers, then the factors'
-/// numbers, replaced.
+/// numbers and those set with them, replaced.
 fn point_deck(ls: &LoadedStudy, values: &[f64]) -> Result<String, String> {
     let mut text = ls.base.src.clone();
     for f in &ls.study.fixed {
-        text = set_number(&text, &crate::deck::KeyPath::parse(&f.key), f.value)?;
+        text = set_number(&text, &KeyPath::parse(&f.key), f.value)?;
     }
     for (key, &v) in ls.keys.iter().zip(values) {
         text = set_number(&text, key, v)?;
     }
+    for (key, v) in linked_numbers(ls, values) {
+        text = set_number(&text, &KeyPath::parse(key), v)?;
+    }
     Ok(text)
 }
 
+/// The numbers set with the factors (`with`) at a design point: each linked key with its
+/// value at the position of its factor's value.
+fn linked_numbers<'a>(ls: &'a LoadedStudy, values: &[f64]) -> Vec<(&'a str, f64)> {
+    let mut numbers = Vec::new();
+    for (f, v) in ls.study.factors.iter().zip(values) {
+        let Some(p) = f
+            .values
+            .as_ref()
+            .and_then(|vs| vs.iter().position(|x| x == v))
+        else {
+            continue;
+        };
+        numbers.extend(f.with.iter().map(|l| (l.key.as_str(), l.values[p])));
+    }
+    numbers
+}
+
 fn describe(ls: &LoadedStudy, values: &[f64]) -> String {
-    ls.study
+    let factors = ls
+        .study
         .factors
         .iter()
         .zip(values)
-        .map(|(f, v)| format!("{} = {v}", f.key))
+        .map(|(f, v)| (f.key.as_str(), *v));
+    factors
+        .chain(linked_numbers(ls, values))
+        .map(|(key, v)| format!("{key} = {v}"))
         .collect::<Vec<_>>()
         .join(", ")
 }

@@ -6,7 +6,7 @@
 //! runs as a one-factor sweep study (`study_run`), which gives it resumption for free.
 
 use super::edit::number_at;
-use super::study::{FixedSpec, LoadedStudy, OutputSpec, StudyFile, StudyMethod};
+use super::study::{FixedSpec, LinkedSpec, LoadedStudy, OutputSpec, StudyFile, StudyMethod};
 use super::{locate_issues, parse_located, DeckError, DeckIssue, KeyPath, LoadedDeck};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -57,6 +57,20 @@ pub struct SeriesSpec {
     pub key: String,
     pub values: Vec<f64>,
     /// The values of the reduced version (default: the full ones).
+    pub reduced: Option<Vec<f64>>,
+    /// Numbers set with the series, one value per series value (the load steps or the end
+    /// of loading each horizon needs).
+    #[serde(default)]
+    pub with: Vec<SeriesLinkSpec>,
+}
+
+/// A number of the deck set with the series: `values` with the full series, `reduced` with
+/// the reduced one (default: `values`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeriesLinkSpec {
+    pub key: String,
+    pub values: Vec<f64>,
     pub reduced: Option<Vec<f64>>,
 }
 
@@ -298,6 +312,17 @@ impl LoadedCase {
                 min: None,
                 max: None,
                 values: Some(self.series_values(reduced)),
+                with: s
+                    .with
+                    .iter()
+                    .map(|l| LinkedSpec {
+                        key: l.key.clone(),
+                        values: match (&l.reduced, reduced) {
+                            (Some(r), true) => r.clone(),
+                            _ => l.values.clone(),
+                        },
+                    })
+                    .collect(),
             })
             .collect::<Vec<_>>();
         let keys = factors.iter().map(|f| KeyPath::parse(&f.key)).collect();
@@ -351,8 +376,62 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
     }
     if let Some(s) = &case.series {
         key_exists("series.key".into(), &s.key);
+        for (j, l) in s.with.iter().enumerate() {
+            key_exists(format!("series.with[{j}].key"), &l.key);
+        }
     }
     if let Some(s) = &case.series {
+        let set_elsewhere = |key: &str| {
+            key == s.key
+                || case.fixed.iter().chain(&case.reduced).any(|f| f.key == key)
+                || s.with.iter().filter(|l| l.key == key).count() > 1
+        };
+        for (j, l) in s.with.iter().enumerate() {
+            if set_elsewhere(&l.key) {
+                issue(
+                    format!("series.with[{j}].key"),
+                    format!(
+                        "`{}` is set twice (the series, `fixed`, `reduced` or another `with`)",
+                        l.key
+                    ),
+                );
+            }
+            let reduced_count = s.reduced.as_ref().unwrap_or(&s.values).len();
+            for (name, values, count) in [
+                ("values", Some(&l.values), s.values.len()),
+                ("reduced", l.reduced.as_ref(), reduced_count),
+            ] {
+                match values {
+                    Some(v) if v.len() != count => issue(
+                        format!("series.with[{j}].{name}"),
+                        format!(
+                            "expected one value per series value ({count}), got {}",
+                            v.len()
+                        ),
+                    ),
+                    Some(v) if v.iter().any(|x| !x.is_finite()) => issue(
+                        format!("series.with[{j}].{name}"),
+                        "values must be finite numbers".into(),
+                    ),
+                    _ => {}
+                }
+            }
+            for (name, values) in [("values", Some(&s.values)), ("reduced", s.reduced.as_ref())] {
+                let v = values.map_or(&[][..], |v| &v[..]);
+                if j == 0 && v.iter().enumerate().any(|(i, x)| v[..i].contains(x)) {
+                    issue(
+                        format!("series.{name}"),
+                        "a series with numbers set with it (`with`) needs distinct values: each names its position".into(),
+                    );
+                }
+            }
+            if l.reduced.is_none() && s.reduced.is_some() && reduced_count != s.values.len() {
+                issue(
+                    format!("series.with[{j}].key"),
+                    "the reduced series has another length: give `reduced` values too".into(),
+                );
+            }
+        }
         for (name, values) in [("values", Some(&s.values)), ("reduced", s.reduced.as_ref())] {
             match values {
                 Some(v) if v.is_empty() => issue(

@@ -98,6 +98,18 @@ pub struct FactorSpec {
     pub max: Option<f64>,
     /// Values (sweep).
     pub values: Option<Vec<f64>>,
+    /// Numbers set with the factor (sweep): in each run, each takes its value at the position
+    /// of the factor's value (a series in the horizon with the load steps each horizon needs).
+    #[serde(default)]
+    pub with: Vec<LinkedSpec>,
+}
+
+/// A number of the deck set with a sweep factor, one value per value of the factor.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkedSpec {
+    pub key: String,
+    pub values: Vec<f64>,
 }
 
 /// One scalar read from every run: a column of a CSV file reduced to one number, or a number
@@ -323,7 +335,7 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
         if study.fixed[..k].iter().any(|g| g.key == f.key) {
             issue(at("key"), format!("`{}` is fixed twice", f.key));
         }
-        if study.factors.iter().any(|g| g.key == f.key) {
+        if study.factors.iter().any(|g| g.key == f.key) || linked(study).any(|l| l == f.key) {
             issue(
                 at("key"),
                 format!("`{}` is also a factor; it cannot be both", f.key),
@@ -343,6 +355,50 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
         }
         if study.factors[..k].iter().any(|g| g.key == f.key) {
             issue(at("key"), format!("`{}` is varied twice", f.key));
+        }
+        for (j, l) in f.with.iter().enumerate() {
+            let at = |key: &str| format!("factors[{k}].with[{j}].{key}");
+            if let Err(e) = number_at(base_src, &KeyPath::parse(&l.key)) {
+                issue(at("key"), e);
+            }
+            let varied = study.factors.iter().any(|g| g.key == l.key);
+            if varied || linked(study).filter(|&o| o == l.key).count() > 1 {
+                issue(at("key"), format!("`{}` is varied twice", l.key));
+            }
+            if morris {
+                issue(
+                    at("key"),
+                    "numbers set with a factor (`with`) are for method = \"sweep\"".into(),
+                );
+                continue;
+            }
+            let count = f.values.as_ref().map_or(0, |v| v.len());
+            if l.values.len() != count {
+                issue(
+                    at("values"),
+                    format!(
+                        "expected one value per value of the factor ({count}), got {}",
+                        l.values.len()
+                    ),
+                );
+            }
+            if let Some(bad) = l.values.iter().find(|x| !x.is_finite()) {
+                issue(
+                    at("values"),
+                    format!("values must be finite numbers, got {bad}"),
+                );
+            }
+            let values = f.values.as_deref().unwrap_or_default();
+            if values
+                .iter()
+                .enumerate()
+                .any(|(i, v)| values[..i].contains(v))
+            {
+                issue(
+                    format!("factors[{k}].values"),
+                    "a factor with numbers set with it (`with`) needs distinct values: each names its position".into(),
+                );
+            }
         }
         if morris {
             if f.values.is_some() {
@@ -428,6 +484,14 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
         ),
     }
     issues
+}
+
+/// The keys set with the factors (`with`), in order.
+fn linked(study: &StudyFile) -> impl Iterator<Item = &str> {
+    study
+        .factors
+        .iter()
+        .flat_map(|f| f.with.iter().map(|l| l.key.as_str()))
 }
 
 /// What is wrong with one output's keys, each as (key, message): the file, then the keys its

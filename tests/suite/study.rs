@@ -201,6 +201,19 @@ values = [2.0e-6, 4.0e-6, 6.0e-6]
     assert!((r[1] / r[0] - 2.0).abs() < 1e-4 && (r[2] / r[0] - 3.0).abs() < 1e-4);
     assert!(report.effects.is_empty());
     assert!(dir.join("out/plots/sweep_reaction.png").exists());
+    // A number set with the factor: twice the displacement at half the modulus, the same
+    // reaction (R ∝ E u).
+    let dir = scratch("sweep-with");
+    let body = r#"method = "sweep"
+[[factors]]
+key = "boundary_conditions[1].value"
+values = [2.0e-6, 4.0e-6]
+with = [{ key = "material.youngs_modulus", values = [2.0e9, 1.0e9] }]
+"#;
+    let ls = LoadedStudy::from_file(&study_file(&dir, body)).unwrap();
+    let report = run_study(&ls, &options(&dir)).unwrap();
+    let r: Vec<f64> = report.runs.iter().map(|r| r.outputs[0].unwrap()).collect();
+    assert!((r[1] / r[0] - 1.0).abs() < 1e-4, "reactions {r:?}");
 }
 
 #[test]
@@ -234,6 +247,18 @@ fn bad_study_files_are_refused_at_their_key() {
         (
             "method = \"screening\"\n",
             "unknown variant `screening`",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\nwith = [{ key = \"material.youngs_modulus\", values = [1.0e9] }]\n",
+            "factors[0].with[0].values: expected one value per value of the factor (2), got 1",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 1.0]\nwith = [{ key = \"material.youngs_modulus\", values = [1.0e9, 2.0e9] }]\n",
+            "factors[0].values: a factor with numbers set with it (`with`) needs distinct values",
+        ),
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"material.density\"\nmin = 1.0\nmax = 2.0\nwith = [{ key = \"material.youngs_modulus\", values = [1.0e9] }]\n",
+            "numbers set with a factor (`with`) are for method = \"sweep\"",
         ),
         (
             "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[outputs]]\nname = \"r\"\ncolumn = \"reaction_top_y\"\nreduce = \"final\"\nwithin = 1.0\n",

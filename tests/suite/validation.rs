@@ -263,6 +263,16 @@ fn bad_case_files_are_refused_at_their_key() {
             "series.key",
         ),
         (
+            "values = [300.0, 400.0]",
+            "values = [300.0, 400.0]\nwith = [{ key = \"material.density\", values = [1.0] }]",
+            "series.with[0].values: expected one value per series value (2), got 1",
+        ),
+        (
+            "values = [300.0, 400.0]",
+            "values = [300.0, 400.0]\nwith = [{ key = \"material.fracture_energy\", values = [1.0, 2.0] }]",
+            "series.with[0].key: `material.fracture_energy` is set twice",
+        ),
+        (
             "ratio = [\"twice\", \"twice\"]",
             "ratio = [\"twice\", \"thrice\"]",
             "derived[1].name: no output `thrice`",
