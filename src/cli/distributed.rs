@@ -10,6 +10,7 @@ use crate::deck::LoadedDeck;
 use crate::run::{RunControl, RunError, RunOptions};
 use crate::solver::ranks::Ranks;
 use crate::study_run::{run_study_over, StudyOptions, StudyRunError};
+use std::fmt::Display;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -85,49 +86,49 @@ fn run_over(
     control: &RunControl,
     ranks: Arc<dyn Ranks>,
 ) -> ExitCode {
-    let root = ranks.rank() == 0;
-    match crate::distributed::run_with(ld, opts, control, ranks.clone()) {
-        Ok(summary) => {
-            if root {
-                println!("{summary}");
-            }
-            ExitCode::SUCCESS
-        }
-        Err(
-            e @ (RunError::Deck(_)
-            | RunError::Distributed(_)
-            | RunError::Checkpoint(_)
-            | RunError::Step(_)
-            | RunError::Stopped(_)),
-        ) => {
-            if root {
-                eprintln!("error: {e}");
-            }
-            ExitCode::FAILURE
-        }
-        Err(e) => {
-            eprintln!("error (rank {}): {e}", ranks.rank());
-            ranks.abort(1)
-        }
-    }
+    let outcome = crate::distributed::run_with(ld, opts, control, ranks.clone());
+    finish(&*ranks, outcome, |e| {
+        matches!(
+            e,
+            RunError::Deck(_)
+                | RunError::Distributed(_)
+                | RunError::Checkpoint(_)
+                | RunError::Step(_)
+                | RunError::Stopped(_)
+        )
+    })
 }
 
 /// `study` over the ranks, each run on one rank; rank 0 writes the study's files.
 fn study_over(ls: &LoadedStudy, opts: &StudyOptions, ranks: Arc<dyn Ranks>) -> ExitCode {
+    let outcome = run_study_over(ls, opts, Some(ranks.clone()));
+    finish(&*ranks, outcome, |e| {
+        matches!(
+            e,
+            StudyRunError::Deck(_)
+                | StudyRunError::Design(_)
+                | StudyRunError::Point { .. }
+                | StudyRunError::Output { .. }
+        )
+    })
+}
+
+/// Rank 0 prints the outcome. An error `every_rank` says all ranks met ends each with a
+/// failure; any other aborts them all.
+fn finish<T: Display, E: Display>(
+    ranks: &dyn Ranks,
+    outcome: Result<T, E>,
+    every_rank: impl Fn(&E) -> bool,
+) -> ExitCode {
     let root = ranks.rank() == 0;
-    match run_study_over(ls, opts, Some(ranks.clone())) {
+    match outcome {
         Ok(report) => {
             if root {
                 println!("{report}");
             }
             ExitCode::SUCCESS
         }
-        Err(
-            e @ (StudyRunError::Deck(_)
-            | StudyRunError::Design(_)
-            | StudyRunError::Point { .. }
-            | StudyRunError::Output { .. }),
-        ) => {
+        Err(e) if every_rank(&e) => {
             if root {
                 eprintln!("error: {e}");
             }
