@@ -291,10 +291,16 @@ pub fn run_study_over(
     }
     let table_path = opts.out_dir.join("runs.csv");
     let header = runs_header(ls);
-    let mut reused = resume(&table_path, &header, &mut runs, |k| {
-        std::fs::read_to_string(runs_dir.join(format!("run_{k:04}")).join("deck.toml")).ok()
-            == Some(decks[k].src.clone())
-    });
+    let mut reused = resume(
+        &table_path,
+        &header,
+        ls.study.outputs.len(),
+        &mut runs,
+        |k| {
+            std::fs::read_to_string(runs_dir.join(format!("run_{k:04}")).join("deck.toml")).ok()
+                == Some(decks[k].src.clone())
+        },
+    );
     // A finished run's outputs are read again from its folder, the record: the study file's
     // outputs may have been redefined since (another reduction under the same name). A folder
     // that no longer gives them runs again.
@@ -496,6 +502,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         Some(Reduce::Final) => Reduction::Final,
         Some(Reduce::Max) => Reduction::Max,
         Some(Reduce::Peak) => Reduction::Peak,
+        Some(Reduce::LargestDrop) => Reduction::LargestDrop,
         Some(Reduce::Min) => Reduction::Min,
         Some(Reduce::MaxAbs) => Reduction::MaxAbs,
         Some(Reduce::FirstTimeAbove) => Reduction::FirstTimeAbove(o.threshold.unwrap_or(0.0)),
@@ -547,12 +554,15 @@ fn write_runs(path: &Path, header: &[String], runs: &[RunRecord]) -> std::io::Re
     write_atomic(path, text.as_bytes())
 }
 
-/// Takes the finished runs of an earlier invocation's `runs.csv` (same columns, same factor
-/// values, a status, and a run folder whose deck is the one this run would run: a changed base
-/// deck or `fixed` number runs everything again): returns how many.
+/// Takes the finished runs of an earlier invocation's `runs.csv` (the same design columns,
+/// the same factor values, a status, and a run folder whose deck is the one this run would
+/// run: a changed base deck or `fixed` number runs everything again): returns how many. The
+/// outputs may have changed since (one added to a validation case): they are read again
+/// from each finished run's folder, not from the table, so hours of runs are not repeated.
 fn resume(
     path: &Path,
     header: &[String],
+    outputs: usize,
     runs: &mut [RunRecord],
     same_deck: impl Fn(usize) -> bool,
 ) -> usize {
@@ -560,15 +570,19 @@ fn resume(
         return 0;
     };
     let mut lines = text.lines();
-    if lines.next().map(|h| h.split(',').collect::<Vec<_>>())
-        != Some(header.iter().map(|s| s.as_str()).collect())
+    let found: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    // run, trajectory (Morris), the factors; then the outputs and the status.
+    let design = header.len() - outputs - 1;
+    if found.len() < design + 1
+        || found[..design] != header[..design]
+        || found.last() != Some(&"status")
     {
         return 0;
     }
     let mut reused = 0;
     for line in lines {
         let cells: Vec<&str> = line.split(',').collect();
-        if cells.len() != header.len() {
+        if cells.len() != found.len() {
             continue;
         }
         let Some(k) = cells[0].parse::<usize>().ok().filter(|&k| k < runs.len()) else {
@@ -585,10 +599,7 @@ fn resume(
         if !same || status.is_empty() || !same_deck(k) {
             continue;
         }
-        run.outputs = cells[first + n..cells.len() - 1]
-            .iter()
-            .map(|c| c.parse::<f64>().ok())
-            .collect();
+        run.outputs = vec![None; outputs];
         run.status = status.to_string();
         reused += 1;
     }

@@ -169,6 +169,9 @@ pub enum Reduce {
     /// The largest value, once the column has turned down after it (an ultimate load); a
     /// run whose last row holds its largest value has not reached its peak and has none.
     Peak,
+    /// The largest fall from one row to the next, as a fraction of the column's largest value
+    /// (a load that drops at once, against one that softens step by step).
+    LargestDrop,
     Min,
     /// The largest magnitude (a reaction force of either sign).
     MaxAbs,
@@ -568,7 +571,7 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     let Some(reduce) = o.reduce else {
         issue(
             "reduce",
-            "expected how the column becomes one number: final, max, peak, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson or angle".into(),
+            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson or angle".into(),
         );
         return issues;
     };

@@ -21,6 +21,9 @@ pub enum Reduction {
     /// The largest value if the last row holds less (the curve has turned: a peak load);
     /// none while the column is still at its largest at the end.
     Peak,
+    /// The largest fall from one row to the next, over the largest value (both of the
+    /// window); none without two rows or with a largest value not above 0.
+    LargestDrop,
     Min,
     MaxAbs,
     /// The `time` of the first row whose value exceeds the level.
@@ -125,6 +128,13 @@ impl Table {
                 values()
                     .reduce(f64::max)
                     .filter(|&m| last.is_some_and(|l| l < m))
+            }
+            Reduction::LargestDrop => {
+                let falls = values()
+                    .zip(values().skip(1))
+                    .map(|(a, b)| (a - b).max(0.0));
+                let top = values().reduce(f64::max).filter(|&m| m > 0.0);
+                top.and_then(|top| falls.reduce(f64::max).map(|fall| fall / top))
             }
             Reduction::Min => values().reduce(f64::min),
             Reduction::MaxAbs => values().map(f64::abs).reduce(f64::max),
@@ -245,6 +255,25 @@ mod tests {
             None
         );
         assert_eq!(r("broken_bonds", Reduction::Max, Some(-1.0)), None);
+    }
+
+    #[test]
+    fn the_largest_drop_is_the_largest_fall_between_rows_over_the_largest_value() {
+        let drop = |csv: &str| {
+            Table::parse(csv)
+                .unwrap()
+                .reduce("load", Reduction::LargestDrop, Window::default())
+                .unwrap()
+        };
+        // Softening step by step: falls of 0.5 and 1 from a top of 10.
+        assert_eq!(drop("time,load\n0,0\n1,10\n2,9.5\n3,8.5\n"), Some(0.1));
+        // A sudden failure: 10 to 1 in one row.
+        assert_eq!(drop("time,load\n0,0\n1,10\n2,1\n3,0.5\n"), Some(0.9));
+        // Still rising: no fall at all.
+        assert_eq!(drop("time,load\n0,0\n1,5\n2,10\n"), Some(0.0));
+        // One row, or nothing above zero: no value.
+        assert_eq!(drop("time,load\n0,3\n"), None);
+        assert_eq!(drop("time,load\n0,0\n1,-2\n"), None);
     }
 
     #[test]

@@ -172,6 +172,17 @@ fn a_stopped_study_continues_with_the_same_results() {
             "the redefined output was not read again"
         );
     }
+    // An output added to the study reuses every finished run: all outputs are read from the
+    // runs' folders.
+    let added = MORRIS.to_string()
+        + "[[outputs]]\nname = \"peak\"\ncolumn = \"reaction_top_y\"\nreduce = \"max\"\n";
+    let ls = LoadedStudy::from_file(&study_file(&dir, &added)).unwrap();
+    let fifth = run_study(&ls, &options(&dir)).unwrap();
+    assert_eq!(fifth.reused, first.runs.len());
+    assert!(fifth
+        .runs
+        .iter()
+        .all(|r| r.outputs.len() == 2 && r.outputs[1].is_some()));
     // A changed design does not reuse runs of another one.
     let other = MORRIS.replace("seed = 11", "seed = 12");
     let ls = LoadedStudy::from_file(&study_file(&dir, &other)).unwrap();
