@@ -416,15 +416,6 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                     _ => {}
                 }
             }
-            for (name, values) in [("values", Some(&s.values)), ("reduced", s.reduced.as_ref())] {
-                let v = values.map_or(&[][..], |v| &v[..]);
-                if j == 0 && v.iter().enumerate().any(|(i, x)| v[..i].contains(x)) {
-                    issue(
-                        format!("series.{name}"),
-                        "a series with numbers set with it (`with`) needs distinct values: each names its position".into(),
-                    );
-                }
-            }
             if l.reduced.is_none() && s.reduced.is_some() && reduced_count != s.values.len() {
                 issue(
                     format!("series.with[{j}].key"),
@@ -433,6 +424,14 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
             }
         }
         for (name, values) in [("values", Some(&s.values)), ("reduced", s.reduced.as_ref())] {
+            let repeats =
+                values.is_some_and(|v| v.iter().enumerate().any(|(i, x)| v[..i].contains(x)));
+            if repeats && !s.with.is_empty() {
+                issue(
+                    format!("series.{name}"),
+                    "a series with numbers set with it (`with`) needs distinct values: each names its position".into(),
+                );
+            }
             match values {
                 Some(v) if v.is_empty() => issue(
                     format!("series.{name}"),

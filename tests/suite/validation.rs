@@ -273,6 +273,11 @@ fn bad_case_files_are_refused_at_their_key() {
             "series.with[0].key: `material.fracture_energy` is set twice",
         ),
         (
+            "values = [300.0, 400.0]",
+            "values = [300.0, 300.0]\nwith = [{ key = \"material.density\", values = [1.0, 2.0] }]",
+            "series.values: a series with numbers set with it (`with`) needs distinct values",
+        ),
+        (
             "ratio = [\"twice\", \"twice\"]",
             "ratio = [\"twice\", \"thrice\"]",
             "derived[1].name: no output `thrice`",
