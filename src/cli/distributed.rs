@@ -4,7 +4,7 @@
 //! (a file rank 0 cannot write) aborts the others, which may be waiting for it.
 
 use super::args::Command;
-use super::deck_name;
+use super::{deck_name, run_folder};
 use crate::deck::study::LoadedStudy;
 use crate::deck::LoadedDeck;
 use crate::run::{RunControl, RunError, RunOptions};
@@ -55,14 +55,10 @@ pub(super) fn run_command(command: Command, ranks: Arc<dyn Ranks>) -> ExitCode {
                 Ok(ld) => ld,
                 Err(e) => return refuse(e.to_string()),
             };
-            if let (Some(o), Some(Some(r))) = (&output, &restart) {
-                if o != r {
-                    return refuse(format!("--restart {} and -o {} name different folders: a run continues in its own results folder; give one of them", r.display(), o.display()));
-                }
-            }
-            let out_dir = output
-                .or(restart.clone().flatten())
-                .unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
+            let out_dir = match run_folder(&deck, output, &restart) {
+                Ok(dir) => dir,
+                Err(e) => return refuse(e),
+            };
             let opts = RunOptions {
                 out_dir,
                 threads,

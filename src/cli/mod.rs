@@ -24,6 +24,19 @@ fn deck_name(deck: &std::path::Path) -> String {
         .unwrap_or_else(|| "run".into())
 }
 
+/// A run's results folder: `-o`, or the folder `--restart DIR` continues (the same one when
+/// both are given), or results/<deck name>.
+fn run_folder(
+    deck: &std::path::Path,
+    output: Option<PathBuf>,
+    restart: &Option<Option<PathBuf>>,
+) -> Result<PathBuf, String> {
+    match (output, restart.clone().flatten()) {
+        (Some(o), Some(r)) if o != r => Err(format!("--restart {} and -o {} name different folders: a run continues in its own results folder; give one of them", r.display(), o.display())),
+        (o, r) => Ok(o.or(r).unwrap_or_else(|| PathBuf::from("results").join(deck_name(deck)))),
+    }
+}
+
 /// Validates a study file and every run's deck, and prints the runs (`study --dry-run`,
 /// `check STUDY`).
 fn check_study(study: &std::path::Path, threads: Option<usize>) -> Result<(), String> {
@@ -61,13 +74,7 @@ pub fn main(world: Option<Arc<dyn Ranks>>) -> ExitCode {
             stop_after_step,
         } => (|| {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
-            let output = match (output, restart.clone().flatten()) {
-                (Some(o), Some(r)) if o != r => {
-                    return Err(format!("--restart {} and -o {} name different folders: a run continues in its own results folder; give one of them", r.display(), o.display()));
-                }
-                (o, r) => o.or(r),
-            };
-            let out_dir = output.unwrap_or_else(|| PathBuf::from("results").join(deck_name(&deck)));
+            let out_dir = run_folder(&deck, output, &restart)?;
             let summary = run_with(
                 &ld,
                 &RunOptions {

@@ -491,3 +491,29 @@ fn killed_process_continues_with_restart_dir() {
     assert_same_files(&whole, &killed);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--restart DIR` and `-o` naming another folder are refused before anything runs.
+#[test]
+fn restart_and_output_naming_two_folders_are_refused() {
+    let dir = scratch("two-folders");
+    let deck = dir.join("plate.toml");
+    std::fs::write(&deck, deck_text(3.09e9, "steps = 10", "")).unwrap();
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_peridyn"))
+        .arg("run")
+        .arg(&deck)
+        .args([
+            "-q",
+            "-o",
+            a.to_str().unwrap(),
+            "--restart",
+            b.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("name different folders"), "{err}");
+    assert!(!a.exists() && !b.exists(), "nothing is written");
+    let _ = std::fs::remove_dir_all(&dir);
+}
