@@ -24,6 +24,7 @@ use crate::geometry::point_cloud::read_point_cloud;
 use crate::loading::{InitialVelocity, Loading};
 use crate::material::correspondence::ZeroEnergyControl;
 use crate::material::mixed::BlockMaterial;
+use crate::material::pmb::HorizonCoupling;
 use crate::material::surface_correction::{
     corrected, surface_factors, SurfaceCorrection, SurfaceFactors,
 };
@@ -782,6 +783,7 @@ fn calibrate(
             density,
             youngs_modulus,
             micromodulus,
+            variable_horizon,
             ..
         } => {
             let c0 = match micromodulus {
@@ -794,7 +796,11 @@ fn calibrate(
                     Pmb::micromodulus(solid(youngs_modulus.unwrap_or(0.0)), dim, profile, horizon)
                 }
             };
-            let m = Pmb::new(c0, *density, dim, profile, horizon, thickness);
+            let mut m = Pmb::new(c0, *density, dim, profile, horizon, thickness);
+            m.coupling = *variable_horizon;
+            if m.coupling == HorizonCoupling::Traditional {
+                report.model = "pmb, traditional PD (a bond acts on its owner only)".into();
+            }
             report.micromodulus = Some(c0);
             let el = m.elasticity;
             (BlockMaterial::Pmb(m), el, Some(c0))

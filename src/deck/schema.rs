@@ -4,6 +4,7 @@
 use crate::bonds::{PartialVolume, Precrack};
 use crate::geometry::Shape;
 use crate::loading::{Kinematic, TimeFunction};
+use crate::material::pmb::HorizonCoupling;
 use crate::material::surface_correction::SurfaceCorrection;
 use crate::material::{Influence, MicromodulusProfile};
 use serde::{Deserialize, Serialize};
@@ -265,6 +266,10 @@ pub enum MaterialDeck {
         critical_stretch: Option<f64>,
         #[serde(default)]
         profile: MicromodulusProfile,
+        /// How bonds between nodes of different horizons act: dual-horizon PD (default) or
+        /// traditional PD (seed 003 §2.2; non-reciprocal, for comparison).
+        #[serde(default, skip_serializing_if = "is_dual")]
+        variable_horizon: HorizonCoupling,
         /// The damage law; default: critical stretch.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         damage: Option<DamageDeck>,
@@ -762,6 +767,10 @@ fn default_qs_equilibria() -> u32 {
 }
 fn default_qs_splits() -> u32 {
     8
+}
+
+fn is_dual(coupling: &HorizonCoupling) -> bool {
+    *coupling == HorizonCoupling::Dual
 }
 
 fn default_safety() -> f64 {

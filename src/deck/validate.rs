@@ -4,7 +4,7 @@
 use super::schema::*;
 use super::DeckIssue;
 use crate::loading::Kinematic;
-use crate::material::pmb::bond_based_poisson_ratio;
+use crate::material::pmb::{bond_based_poisson_ratio, HorizonCoupling};
 use crate::material::Dimensionality;
 
 /// The dimensionality a deck asks for, if its settings are consistent.
@@ -395,6 +395,7 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         !deck.initial_velocities.is_empty(),
     );
     validate_stages(&mut out, deck, softens, &known, &unknown_set);
+    validate_traditional_horizons(&mut out, deck);
     if let Some(tip) = deck.analysis.as_ref().and_then(|a| a.crack_tip.as_ref()) {
         validate_crack_tip(&mut out, tip, d);
     }
@@ -409,6 +410,58 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
         validate_crack_surface(&mut out, surface, d);
     }
     out
+}
+
+/// `variable_horizon = "traditional"` (seed 003 §2.2) is a comparison model for waves and
+/// critical-stretch fracture: its forces are not the gradient of an energy, and its bonds
+/// act on one end only, so it takes one material, explicit solvers and a stretch criterion.
+fn validate_traditional_horizons(out: &mut Vec<DeckIssue>, deck: &Deck) {
+    let traditional = |m: &MaterialDeck| {
+        matches!(
+            m,
+            MaterialDeck::Pmb {
+                variable_horizon: HorizonCoupling::Traditional,
+                ..
+            }
+        )
+    };
+    let tables = std::iter::once(("material".to_string(), &deck.material)).chain(
+        deck.materials
+            .iter()
+            .map(|(name, m)| (format!("materials.{name}"), m)),
+    );
+    for (path, m) in tables.filter(|(_, m)| traditional(m)) {
+        let key = format!("{path}.variable_horizon");
+        if !deck.materials.is_empty() {
+            out.push(DeckIssue::new(
+                &key,
+                "traditional variable-horizon PD takes one material (`[material]` alone): a bond between two materials has no traditional form here",
+            ));
+        }
+        if !matches!(
+            m.damage(),
+            DamageDeck::None {} | DamageDeck::CriticalStretch {}
+        ) {
+            out.push(DeckIssue::new(
+                &key,
+                "traditional variable-horizon PD takes damage = { type = \"none\" } or \"critical_stretch\": the work of a bond is not defined when its two ends feel different forces",
+            ));
+        }
+        let solvers = std::iter::once(("solver".to_string(), &deck.solver)).chain(
+            deck.stages
+                .iter()
+                .enumerate()
+                .map(|(k, st)| (format!("stages[{k}].solver"), &st.solver)),
+        );
+        for (at, solver) in solvers {
+            if !matches!(solver, SolverDeck::Explicit { .. }) {
+                out.push(DeckIssue::new(
+                    &format!("{at}.type"),
+                    format!("{key} = \"traditional\" runs with explicit dynamics only: its forces are not the gradient of an energy, which the quasi-static solvers need"),
+                ));
+            }
+        }
+    }
 }
 
 /// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.

@@ -32,6 +32,21 @@ impl MicromodulusProfile {
     }
 }
 
+/// How a bond between nodes of different horizons acts (seed 003 §2.2–2.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum HorizonCoupling {
+    /// Dual-horizon PD (seed 003 §2.3, Eq. 8): each node's half of a bond, with its own
+    /// micromodulus, acts on both ends, so forces come in equal and opposite pairs.
+    #[default]
+    Dual,
+    /// Traditional PD with variable horizons (seed 003 §2.2): node i feels the bonds of its
+    /// own horizon only, with its own micromodulus, c_i φ_ij μ_ij, and j feels no reaction
+    /// when i lies outside j's horizon. Momentum is not conserved (the ghost forces and
+    /// spurious reflections the paper shows); a model to compare with, not to predict with.
+    Traditional,
+}
+
 /// Poisson's ratio a bond-based model is tied to: 1/3 in plane stress, 1/4 otherwise
 /// (seed 001, §2.1).
 pub fn bond_based_poisson_ratio(dim: Dimensionality) -> f64 {
@@ -57,6 +72,7 @@ pub struct Pmb {
     pub horizons: PerNode,
     pub rho: f64,
     pub elasticity: Elasticity,
+    pub coupling: HorizonCoupling,
     dimensionality: Dimensionality,
     thickness: f64,
 }
@@ -144,6 +160,7 @@ impl Pmb {
                 poisson_ratio: bond_based_poisson_ratio(dim),
                 dimensionality: dim,
             },
+            coupling: HorizonCoupling::Dual,
             dimensionality: dim,
             thickness,
         }
@@ -174,7 +191,9 @@ impl Pmb {
             Some(h) if h == self.horizon => return self,
             // One horizon, another than the reference: the uniform material at that horizon.
             Some(h) => {
-                return Self::calibrated(e, self.rho, dim, profile, h, t);
+                let mut m = Self::calibrated(e, self.rho, dim, profile, h, t);
+                m.coupling = self.coupling;
+                return m;
             }
             None => {}
         }
@@ -207,9 +226,13 @@ impl Pmb {
     }
 
     /// The pair weight c φ̄ of a bond: c ½(φ_ij μ_ij + φ_ji μ_ji) with one micromodulus,
-    /// ½(c_i φ_ij μ_ij + c_j φ_ji μ_ji) with one per node.
+    /// ½(c_i φ_ij μ_ij + c_j φ_ji μ_ji) with one per node (dual-horizon PD, seed 003 Eq. 8);
+    /// c_i φ_ij μ_ij, node i's own half only, in traditional PD (seed 003 §2.2).
     #[inline(always)]
     fn pair_weight<const D: usize>(&self, i: usize, j: usize, b: &BondGeom<D>) -> f64 {
+        if self.coupling == HorizonCoupling::Traditional {
+            return self.c(i, b.ref_len) * (b.phi_ij * b.mu_ij);
+        }
         match self.c0 {
             PerNode::Uniform(c0) => {
                 let c = match self.profile {
@@ -286,6 +309,10 @@ impl<const D: usize> Material<D> for Pmb {
         w: &UniformWeights,
         _: &[()],
     ) -> Option<([f64; 3], u64)> {
+        // The kernels sum both halves of each bond (dual-horizon PD).
+        if self.coupling == HorizonCoupling::Traditional {
+            return None;
+        }
         let c0 = self.c0.uniform()?;
         let law = simd::PmbLaw {
             c0,

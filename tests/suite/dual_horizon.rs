@@ -24,7 +24,8 @@ use peridyn::bonds::{Bonds, PartialVolume};
 use peridyn::damage::{CriticalStretch, PerNode, BROKEN, INTACT, OTHER_BROKEN, OWN_BROKEN};
 use peridyn::geometry::Shape;
 use peridyn::loading::{BoundaryCondition, Kinematic, Loading, TimeFunction};
-use peridyn::material::{BondGeom, Dimensionality, Elasticity, Material, MicromodulusProfile, Pmb};
+use peridyn::material::pmb::HorizonCoupling;
+use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Pmb};
 use peridyn::math::Vector;
 use peridyn::solver::Simulation;
 use std::time::Instant;
@@ -474,42 +475,89 @@ fn dual_bond_uses_its_owners_constants() {
     assert_eq!(OWN_BROKEN | OTHER_BROKEN, BROKEN);
 }
 
+/// Traditional PD on the same bond (seed 003 §2.2): the node with the large horizon feels
+/// its whole bond, c_j s V_i (twice the dual-horizon half), the node with the small horizon
+/// nothing, since the bond is not in its horizon; the net force is not zero. On the
+/// uniform parts of the plate, away from the interface, it is dual-horizon PD bit for bit.
+#[test]
+fn traditional_bond_acts_on_its_owner_only() {
+    let (body, bonds) = two_horizon_plate(PartialVolume::Hhb);
+    let dual = dual_horizon_pmb(&body, MicromodulusProfile::Constant);
+    let c0 = dual.c0.clone();
+    let i = nearest(&body, 13.5 * DX, 8.5 * DX);
+    let j = nearest(&body, 18.5 * DX, 8.5 * DX);
+    assert_eq!((body.horizons[i], body.horizons[j]), (3.0 * DX, 6.0 * DX));
+    let mut trad = simulation(
+        body.clone(),
+        bonds.clone(),
+        in_traditional_pd(dual.clone()),
+        CriticalStretch::never(),
+        PartialVolume::Hhb,
+    );
+    let mut dh = simulation(
+        body,
+        bonds,
+        dual,
+        CriticalStretch::never(),
+        PartialVolume::Hhb,
+    );
+    let (vi, vj) = (trad.body.volumes[i], trad.body.volumes[j]);
+    let s = 1e-4;
+    let uj = Vector::<2>::new(5.0 * DX * s, 0.0);
+    for sim in [&mut trad, &mut dh] {
+        let body = sim.body.clone();
+        sim.state.set_displacement(&body, j, uj);
+        sim.engine.compute(&sim.body, &sim.bonds, &mut sim.state);
+    }
+    // Only node j moved: the only stretched bond of i is i–j.
+    let dual_half = 0.5 * c0.at(j) * s * vj;
+    println!(
+        "one bond in j's horizon only, stretch {s:e}: force on i {:e} traditional, {:e} \
+         dual-horizon (½ c_j s V_j = {dual_half:e})",
+        trad.state.force[i][0], dh.state.force[i][0],
+    );
+    assert_eq!(trad.state.force[i][0], 0.0);
+    // Round-off: the stretch is set through positions of about 20Δx.
+    assert!((dh.state.force[i][0] - dual_half).abs() <= 1e-9 * dual_half);
+    // Momentum: Σ V f vanishes in dual-horizon PD, not in traditional PD.
+    let net = |sim: &Simulation<2, Pmb>| -> f64 {
+        sim.state
+            .force
+            .iter()
+            .zip(&sim.body.volumes)
+            .map(|(f, v)| f[0] * v)
+            .sum()
+    };
+    let scale = c0.at(j) * s * vi * vj;
+    let (net_trad, net_dh) = (net(&trad) / scale, net(&dh) / scale);
+    println!("net force Σ V f_x over c_j s V_i V_j: traditional {net_trad:.3e}, dual-horizon {net_dh:.3e}");
+    assert!(net_dh.abs() < 1e-12);
+    assert!(net_trad.abs() > 0.1);
+    // Far from the interface (x < 6Δx, where every node and its neighbours have δ = 3Δx)
+    // the two models give the same force bit for bit under any displacement.
+    let field =
+        |k: usize, _: &Vector<2>| Vector::<2>::new(1e-4 * DX * noise(k), 1e-4 * DX * noise(k + 7));
+    displace(&mut trad, field);
+    displace(&mut dh, field);
+    let far: Vec<usize> = (0..trad.body.len())
+        .filter(|&k| trad.body.positions[k][0] < 6.0 * DX)
+        .collect();
+    assert!(!far.is_empty());
+    for k in far {
+        assert_eq!(trad.state.force[k], dh.state.force[k], "node {k}");
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // (c) A plane pulse crossing a 2:1 horizon interface.
 // ---------------------------------------------------------------------------------------------
 
-/// Traditional bond-based PD with a micromodulus per node (seed 003 §2.3, last paragraph):
+/// The same material in traditional PD (seed 003 §2.2, `variable_horizon = "traditional"`):
 /// node i sums over its own horizon only, with its own c_i. Not reciprocal when horizons
 /// vary; on a uniform grid it is ordinary PMB. For comparison only.
-#[derive(Clone)]
-struct TraditionalPmb {
-    c0: Vec<f64>,
-    rho: f64,
-    elasticity: Elasticity,
-}
-
-impl Material<2> for TraditionalPmb {
-    type Point = ();
-    const NEEDS_PREPASS: bool = false;
-    fn force_state(&self, i: usize, b: &BondGeom<2>, _: &()) -> f64 {
-        self.c0[i] * b.stretch()
-    }
-    fn pair_force_per_length(&self, i: usize, _j: usize, b: &BondGeom<2>, _: &(), _: &()) -> f64 {
-        self.c0[i] * b.phi_ij * b.mu_ij * (b.len - b.ref_len) / (b.ref_len * b.len)
-    }
-    fn bond_energy(&self, i: usize, b: &BondGeom<2>, _: &()) -> f64 {
-        let s = b.stretch();
-        0.25 * self.c0[i] * s * s * b.ref_len * b.weight()
-    }
-    fn bond_stiffness(&self, i: usize, ref_len: f64) -> f64 {
-        self.c0[i] / ref_len
-    }
-    fn density(&self, _: usize) -> f64 {
-        self.rho
-    }
-    fn elasticity(&self) -> Elasticity {
-        self.elasticity
-    }
+fn in_traditional_pd(mut m: Pmb) -> Pmb {
+    m.coupling = HorizonCoupling::Traditional;
+    m
 }
 
 const WAVE_E: f64 = 1e9;
@@ -816,14 +864,8 @@ fn crossing(w: &Wave, control: bool, traditional: bool) -> [f64; 4] {
         }
     }
     if traditional {
-        let trad = pulse_run(w, w.m_in, w.m_out, dt, |body| TraditionalPmb {
-            c0: body
-                .horizons
-                .iter()
-                .map(|&h| wave_pmb(h / DX).c0.uniform().unwrap())
-                .collect(),
-            rho: WAVE_RHO,
-            elasticity: wave_pmb(w.m_in).elasticity,
+        let trad = pulse_run(w, w.m_in, w.m_out, dt, |body| {
+            in_traditional_pd(wave_pmb(w.m_in).with_horizons(&body.horizons))
         });
         let t = reflection(w, &trad, &reference);
         println!(
@@ -986,25 +1028,7 @@ fn homogeneous_strain_ghost_force() {
     let (body, bonds) = two_horizon_plate(PartialVolume::Hhb);
     let dh = dual_horizon_pmb(&body, MicromodulusProfile::Constant);
     let el = dh.elasticity;
-    let trad = TraditionalPmb {
-        c0: body
-            .horizons
-            .iter()
-            .map(|&h| {
-                pmb(
-                    Dimensionality::PlaneStress,
-                    70e9,
-                    h,
-                    MicromodulusProfile::Constant,
-                )
-                .c0
-                .uniform()
-                .unwrap()
-            })
-            .collect(),
-        rho: dh.rho,
-        elasticity: el,
-    };
+    let trad = in_traditional_pd(dh.clone());
     let eps = 1e-4;
     let field = |_: usize, x: &Vector<2>| Vector::<2>::new(eps * x[0], 0.0);
     let mut a = simulation(
