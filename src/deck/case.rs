@@ -544,7 +544,13 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 "a trend reads every run of the series; remove `at`".into(),
             ),
             (None, Some(_), _) => issue(at("at"), "`at` needs a [series]".into()),
-            (None, None, Some(_)) => issue(at("trend"), "a trend needs a [series]".into()),
+            // A bound holds run by run, so one run is enough; a direction or a constant
+            // compares the runs of a series.
+            (None, None, Some(t)) if !matches!(t, Trend::Below | Trend::Above) => issue(
+                at("trend"),
+                "a trend over runs needs a [series] (`below` and `above` hold for one run too)"
+                    .into(),
+            ),
             (Some(s), Some(a), _) if !s.values.contains(&a) => issue(
                 at("at"),
                 format!("{a} is not one of the series values {:?}", s.values),

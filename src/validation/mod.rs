@@ -246,11 +246,39 @@ pub fn load_all(layout: &Layout) -> Result<Vec<CaseEntry>, String> {
 /// every case and its committed measurement.
 pub fn report_texts(layout: &Layout) -> Result<(String, Option<String>), String> {
     let entries = load_all(layout)?;
+    let unexplained = unexplained_differences(&entries);
+    if !unexplained.is_empty() {
+        return Err(format!(
+            "rows that differ from the paper without a cause: {}; give each an `explanation` in its case (an erratum with the derivation, an inferred input, or a model limitation, and the size of the difference)",
+            unexplained.join(", ")
+        ));
+    }
     let report = report::markdown(&entries, "validation", &layout.docs().join("validation"));
     let readme = std::fs::read_to_string(layout.readme())
         .ok()
         .and_then(|r| report::with_readme_summary(&r, &report::readme_summary(&entries)));
     Ok((report, readme))
+}
+
+/// `<case>: <id>` of every full-size row that differs and whose case gives no explanation.
+fn unexplained_differences(entries: &[CaseEntry]) -> Vec<String> {
+    entries
+        .iter()
+        .flat_map(|e| {
+            let rows = verdict::judge_case(&e.case, e.measured.as_ref(), false, &e.others);
+            rows.into_iter()
+                .filter(|row| row.status == verdict::Status::Differs)
+                .filter(|row| {
+                    e.case
+                        .case
+                        .results
+                        .iter()
+                        .any(|r| r.id == row.id && r.explanation.trim().is_empty())
+                })
+                .map(|row| format!("{}: {}", e.path, row.id))
+                .collect::<Vec<_>>()
+        })
+        .collect()
 }
 
 /// Writes `docs/validation.md` and the README's summary again.

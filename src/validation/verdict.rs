@@ -1,5 +1,6 @@
 //! A paper's result against what a case measured: PASS within the row's tolerance, DIFFERS
-//! outside it, NOT RUN without a measurement. The same rule serves the full runs (the row's
+//! outside it or without a value from a finished run (no crack where the paper has one),
+//! NOT RUN without a measurement. The same rule serves the full runs (the row's
 //! `tolerance`) and the reduced ones in CI (its `reduced_tolerance`).
 
 use super::measured::Measured;
@@ -138,13 +139,21 @@ fn judge(
             .map(|(run, _)| number(run.series.unwrap_or(f64::NAN)))
             .collect();
         if !without.is_empty() {
-            // Why a run has no value (a load still rising at its end) is the row's explanation.
+            // A finished run without a value (no crack where the paper has one) is a result
+            // that differs; its cause is the row's explanation.
+            let finished = runs
+                .iter()
+                .zip(&values)
+                .all(|(run, v)| v.is_some() || run.status == "ok");
+            if finished {
+                row.status = verdict(false, reduced && r.why_reduced.trim().is_empty());
+            }
             row.note = format!(
                 "The run{} at {} gave no value of `{}`. {}",
                 if without.len() > 1 { "s" } else { "" },
                 without.join(" and "),
                 r.output,
-                r.explanation
+                if reduced { "" } else { &r.explanation }
             )
             .trim()
             .to_string();
@@ -179,14 +188,28 @@ fn judge(
             return row;
         };
         row.measured = output(run);
-        let (Some(v), Some(p)) = (row.measured, r.paper) else {
-            row.note = format!("The run gave no value ({}).", run.status);
-            return row;
-        };
         row.tolerance = match (rel, abs) {
             (Some(t), _) => format!("±{}", percent(t)),
             (None, Some(a)) => format!("±{} {}", number(a), r.unit),
             (None, None) => String::new(),
+        };
+        let (Some(v), Some(p)) = (row.measured, r.paper) else {
+            row.tolerance.clear();
+            if row.measured.is_none() && r.paper.is_some() && run.status == "ok" {
+                // As for a trend: a finished run without a value differs from the paper's.
+                let checked = rel.is_some() || abs.is_some();
+                row.status = verdict(false, !checked);
+                row.note = if reduced {
+                    format!("The run gave no value of `{}`.", r.output)
+                } else {
+                    format!("The run gave no value of `{}`. {}", r.output, r.explanation)
+                        .trim()
+                        .to_string()
+                };
+            } else {
+                row.note = format!("The run gave no value ({}).", run.status);
+            }
+            return row;
         };
         let within = rel
             .map(|t| (v - p).abs() <= t * p.abs())

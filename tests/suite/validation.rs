@@ -224,6 +224,26 @@ fn verdicts_follow_the_tolerances_and_trends() {
         Status::Unchecked,
         "a trend without why_reduced"
     );
+    // A finished run without a value (no crack where the paper has a speed) differs, with
+    // the row's explanation; a failed run stays NOT RUN, with its status.
+    let mut silent = measured.clone();
+    silent.runs[1].outputs.clear();
+    let rows = judge_case(&case, Some(&silent), false, &Others::none());
+    assert_eq!((rows[1].status, rows[1].measured), (Status::Differs, None));
+    assert_eq!(
+        rows[1].note,
+        "The run gave no value of `speed`. it is slower"
+    );
+    assert_eq!(
+        rows[2].status,
+        Status::Differs,
+        "a trend over a run without value"
+    );
+    silent.runs[1].status = "failed: diverged".into();
+    let rows = judge_case(&case, Some(&silent), false, &Others::none());
+    assert_eq!(rows[1].status, Status::NotRun);
+    assert_eq!(rows[1].note, "The run gave no value (failed: diverged).");
+    assert_eq!(rows[2].status, Status::NotRun);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
