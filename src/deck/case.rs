@@ -74,7 +74,8 @@ pub struct SeriesLinkSpec {
     pub reduced: Option<Vec<f64>>,
 }
 
-/// An output computed from others of the same run: exactly one of `sum`, `difference`
+/// An output computed from others of the same run: exactly one of `sum`, `min`, `max` (of
+/// the listed outputs that have a value: the first of several cracks to start), `difference`
 /// (first − second) or `ratio` (first / second). With `other_case`, the second output of a
 /// difference or ratio is read from that case's full measurement, at the run in the same
 /// position of its series (the two cases list the same δ or Δx in the same order).
@@ -83,6 +84,8 @@ pub struct SeriesLinkSpec {
 pub struct DerivedSpec {
     pub name: String,
     pub sum: Option<Vec<String>>,
+    pub min: Option<Vec<String>>,
+    pub max: Option<Vec<String>>,
     pub difference: Option<[String; 2]>,
     pub ratio: Option<[String; 2]>,
     /// Another case file, relative to this one (`fig12_pmb.toml`).
@@ -93,7 +96,9 @@ impl DerivedSpec {
     /// The outputs it reads from this case's run.
     pub fn inputs(&self) -> Vec<&String> {
         let mut v: Vec<&String> = Vec::new();
-        v.extend(self.sum.iter().flatten());
+        for list in [&self.sum, &self.min, &self.max] {
+            v.extend(list.iter().flatten());
+        }
         for pair in [&self.difference, &self.ratio].into_iter().flatten() {
             v.push(&pair[0]);
             if self.other_case.is_none() {
@@ -116,6 +121,14 @@ impl DerivedSpec {
         };
         if let Some(names) = &self.sum {
             return names.iter().map(|n| of(n)).sum();
+        }
+        // Of the inputs that have a value (a box without a crack has no start).
+        let present = |names: &Vec<String>| names.iter().filter_map(|n| of(n)).collect::<Vec<_>>();
+        if let Some(names) = &self.min {
+            return present(names).into_iter().reduce(f64::min);
+        }
+        if let Some(names) = &self.max {
+            return present(names).into_iter().reduce(f64::max);
         }
         if let Some([a, b]) = &self.difference {
             return Some(of(a)? - second(b)?);
@@ -494,16 +507,22 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         if known_before(&d.name) {
             issue(at("name"), format!("output `{}` is named twice", d.name));
         }
-        let kinds =
-            d.sum.is_some() as usize + d.difference.is_some() as usize + d.ratio.is_some() as usize;
-        if kinds != 1 || d.sum.as_ref().is_some_and(|s| s.is_empty()) {
+        let lists = [&d.sum, &d.min, &d.max];
+        let kinds = lists.iter().filter(|l| l.is_some()).count()
+            + d.difference.is_some() as usize
+            + d.ratio.is_some() as usize;
+        if kinds != 1
+            || lists
+                .iter()
+                .any(|l| l.as_ref().is_some_and(|s| s.is_empty()))
+        {
             issue(
                 at("name"),
-                "expected one of `sum = [outputs…]`, `difference = [a, b]` or `ratio = [a, b]`"
+                "expected one of `sum`, `min` or `max = [outputs…]`, `difference = [a, b]` or `ratio = [a, b]`"
                     .into(),
             );
         }
-        if d.other_case.is_some() && d.sum.is_some() {
+        if d.other_case.is_some() && lists.iter().any(|l| l.is_some()) {
             issue(
                 at("other_case"),
                 "`other_case` goes with `difference` or `ratio`: their second output is read from the other case".into(),
