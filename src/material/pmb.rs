@@ -32,11 +32,11 @@ impl MicromodulusProfile {
     }
 }
 
-/// How a bond between nodes of different horizons acts (seed 003 §2.2–2.3).
+/// How a bond between nodes of different horizons acts (seed 003 §2.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum HorizonCoupling {
-    /// Dual-horizon PD (seed 003 §2.3, Eq. 8): each node's half of a bond, with its own
+    /// Dual-horizon PD (seed 003 §2.2, Eq. 8): each node's half of a bond, with its own
     /// micromodulus, acts on both ends, so forces come in equal and opposite pairs.
     #[default]
     Dual,
@@ -226,7 +226,7 @@ impl Pmb {
     }
 
     /// The pair weight c φ̄ of a bond: c ½(φ_ij μ_ij + φ_ji μ_ji) with one micromodulus,
-    /// ½(c_i φ_ij μ_ij + c_j φ_ji μ_ji) with one per node (dual-horizon PD, seed 003 Eq. 8);
+    /// ½(c_i φ_ij μ_ij + c_j φ_ji μ_ji) with one per node (dual-horizon PD, seed 003 §2.2, Eq. 8);
     /// c_i φ_ij μ_ij, node i's own half only, in traditional PD (seed 003 §2.2).
     #[inline(always)]
     fn pair_weight<const D: usize>(&self, i: usize, j: usize, b: &BondGeom<D>) -> f64 {

@@ -67,8 +67,8 @@ pub fn markdown(entries: &[CaseEntry], figure_dir: &str, figures_present: &Path)
            cargo run --release -- validate --report                                  \
            # this page again from the measurements\n```\n\n";
     md += "PASS: within the row's tolerance (set from the paper's own scatter or reading \
-           precision, never widened). DIFFERS: outside it, with the cause. NOT RUN: with what it \
-           needs.\n\n";
+           precision, never widened). DIFFERS: outside it, or no value where the paper has one (a \
+           crack that does not start), with the cause. NOT RUN: with what it needs.\n\n";
 
     md += "## Summary\n\n";
     md += &summary(&judged, "#seed-");

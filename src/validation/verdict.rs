@@ -188,28 +188,26 @@ fn judge(
             return row;
         };
         row.measured = output(run);
-        row.tolerance = match (rel, abs) {
-            (Some(t), _) => format!("±{}", percent(t)),
-            (None, Some(a)) => format!("±{} {}", number(a), r.unit),
-            (None, None) => String::new(),
-        };
         let (Some(v), Some(p)) = (row.measured, r.paper) else {
-            row.tolerance.clear();
             if row.measured.is_none() && r.paper.is_some() && run.status == "ok" {
                 // As for a trend: a finished run without a value differs from the paper's.
-                let checked = rel.is_some() || abs.is_some();
-                row.status = verdict(false, !checked);
-                row.note = if reduced {
-                    format!("The run gave no value of `{}`.", r.output)
-                } else {
-                    format!("The run gave no value of `{}`. {}", r.output, r.explanation)
-                        .trim()
-                        .to_string()
-                };
+                row.status = verdict(false, rel.is_none() && abs.is_none());
+                row.note = format!(
+                    "The run gave no value of `{}`. {}",
+                    r.output,
+                    if reduced { "" } else { &r.explanation }
+                )
+                .trim()
+                .to_string();
             } else {
                 row.note = format!("The run gave no value ({}).", run.status);
             }
             return row;
+        };
+        row.tolerance = match (rel, abs) {
+            (Some(t), _) => format!("±{}", percent(t)),
+            (None, Some(a)) => format!("±{} {}", number(a), r.unit),
+            (None, None) => String::new(),
         };
         let within = rel
             .map(|t| (v - p).abs() <= t * p.abs())
