@@ -144,7 +144,7 @@ fn judge(
             let finished = runs
                 .iter()
                 .zip(&values)
-                .all(|(run, v)| v.is_some() || run.status == "ok");
+                .all(|(run, v)| v.is_some() || gave_no_value(case, run, &r.output, others));
             if finished {
                 row.status = verdict(false, reduced && r.why_reduced.trim().is_empty());
             }
@@ -189,7 +189,10 @@ fn judge(
         };
         row.measured = output(run);
         let (Some(v), Some(p)) = (row.measured, r.paper) else {
-            if row.measured.is_none() && r.paper.is_some() && run.status == "ok" {
+            if row.measured.is_none()
+                && r.paper.is_some()
+                && gave_no_value(case, run, &r.output, others)
+            {
                 // As for a trend: a finished run without a value differs from the paper's.
                 row.status = verdict(false, rel.is_none() && abs.is_none());
                 row.note = format!(
@@ -236,6 +239,32 @@ fn judge(
             .to_string();
     }
     row
+}
+
+/// Whether a run finished without a value of `output` of its own: not when it failed, nor
+/// when `output` compares with another case that has nothing at this run (no measurement
+/// yet, or a reduced run), which leaves the comparison not run.
+fn gave_no_value(
+    case: &LoadedCase,
+    run: &super::measured::MeasuredRun,
+    output: &str,
+    others: &Others,
+) -> bool {
+    if run.status != "ok" {
+        return false;
+    }
+    let across = case
+        .case
+        .derived
+        .iter()
+        .find(|d| d.name == output && d.other_case.is_some());
+    match across {
+        Some(d) => {
+            let own = run.values(case, others);
+            d.inputs().iter().any(|n| !own.contains_key(*n))
+        }
+        None => true,
+    }
 }
 
 fn verdict(holds: bool, unchecked: bool) -> Status {
