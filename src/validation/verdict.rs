@@ -148,15 +148,12 @@ fn judge(
             if finished {
                 row.status = verdict(false, reduced && r.why_reduced.trim().is_empty());
             }
-            row.note = format!(
-                "The run{} at {} gave no value of `{}`. {}",
+            let runs = format!(
+                "The run{} at {}",
                 if without.len() > 1 { "s" } else { "" },
-                without.join(" and "),
-                r.output,
-                if reduced { "" } else { &r.explanation }
-            )
-            .trim()
-            .to_string();
+                without.join(" and ")
+            );
+            row.note = no_value_note(&runs, r, reduced);
             return row;
         }
         if values.len() < fewest {
@@ -195,13 +192,7 @@ fn judge(
             {
                 // As for a trend: a finished run without a value differs from the paper's.
                 row.status = verdict(false, rel.is_none() && abs.is_none());
-                row.note = format!(
-                    "The run gave no value of `{}`. {}",
-                    r.output,
-                    if reduced { "" } else { &r.explanation }
-                )
-                .trim()
-                .to_string();
+                row.note = no_value_note("The run", r, reduced);
             } else {
                 row.note = format!("The run gave no value ({}).", run.status);
             }
@@ -265,6 +256,14 @@ fn gave_no_value(
         }
         None => true,
     }
+}
+
+/// "<runs> gave no value of `<output>`.", with the row's explanation at full size.
+fn no_value_note(runs: &str, r: &ResultSpec, reduced: bool) -> String {
+    let cause = if reduced { "" } else { r.explanation.as_str() };
+    format!("{runs} gave no value of `{}`. {cause}", r.output)
+        .trim()
+        .to_string()
 }
 
 fn verdict(holds: bool, unchecked: bool) -> Status {
