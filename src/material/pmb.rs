@@ -230,20 +230,26 @@ impl Pmb {
     /// c_i φ_ij μ_ij, node i's own half only, in traditional PD (seed 003 §2.2).
     #[inline(always)]
     fn pair_weight<const D: usize>(&self, i: usize, j: usize, b: &BondGeom<D>) -> f64 {
-        if self.coupling == HorizonCoupling::Traditional {
-            return self.c(i, b.ref_len) * (b.phi_ij * b.mu_ij);
-        }
+        let traditional = self.coupling == HorizonCoupling::Traditional;
         match self.c0 {
             PerNode::Uniform(c0) => {
                 let c = match self.profile {
                     MicromodulusProfile::Constant => c0,
                     MicromodulusProfile::Conical => c0 * (1.0 - b.ref_len / self.horizon).max(0.0),
                 };
-                c * 0.5 * (b.phi_ij * b.mu_ij + b.phi_ji * b.mu_ji)
+                if traditional {
+                    c * (b.phi_ij * b.mu_ij)
+                } else {
+                    c * 0.5 * (b.phi_ij * b.mu_ij + b.phi_ji * b.mu_ji)
+                }
             }
             PerNode::Varying(_) => {
-                0.5 * (self.c(i, b.ref_len) * (b.phi_ij * b.mu_ij)
-                    + self.c(j, b.ref_len) * (b.phi_ji * b.mu_ji))
+                let own = self.c(i, b.ref_len) * (b.phi_ij * b.mu_ij);
+                if traditional {
+                    own
+                } else {
+                    0.5 * (own + self.c(j, b.ref_len) * (b.phi_ji * b.mu_ji))
+                }
             }
         }
     }
