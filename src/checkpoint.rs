@@ -25,6 +25,7 @@ use crate::solver::quasi_static::QuasiStaticMemory;
 use crate::state::State;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
@@ -70,8 +71,9 @@ pub struct DriverState<const D: usize> {
     pub impactors: Vec<ImpactorState<D>>,
 }
 
-/// When and where a run writes its checkpoint: at the snapshots (`[output] checkpoint`) and
-/// every `checkpoint_interval` steps; each one replaces the last.
+/// When and where a run writes its checkpoint: at the snapshots (`[output] checkpoint`),
+/// every `checkpoint_interval` steps, and (for the runs of studies and validation cases) at the
+/// first step after a stretch of wall time; each one replaces the last.
 #[derive(Debug, Clone)]
 pub struct Checkpoints {
     pub path: PathBuf,
@@ -79,11 +81,32 @@ pub struct Checkpoints {
     /// The snapshots' schedule, when checkpoints go with them.
     pub snapshots: Option<Every>,
     pub interval: Option<u64>,
+    pub wall: Option<WallClock>,
+}
+
+/// Checkpoints by the clock: a run killed after hours loses at most `every` of them. Which
+/// step a checkpoint falls on depends on the machine; the results do not, since a run
+/// continued from any step is bitwise the run that did not stop.
+#[derive(Debug, Clone)]
+pub struct WallClock {
+    pub every: Duration,
+    pub last: Instant,
 }
 
 impl Checkpoints {
-    pub fn wants(&self, step: u64, last: bool) -> bool {
-        self.snapshots.is_some_and(|e| e.hits(step, last))
+    /// Whether `step` gets a checkpoint; a step taken by the clock restarts it.
+    pub fn wants(&mut self, step: u64, last: bool) -> bool {
+        let by_clock = self
+            .wall
+            .as_mut()
+            .is_some_and(|w| w.last.elapsed() >= w.every);
+        if by_clock {
+            if let Some(w) = self.wall.as_mut() {
+                w.last = Instant::now();
+            }
+        }
+        by_clock
+            || self.snapshots.is_some_and(|e| e.hits(step, last))
             || self.interval.is_some_and(|n| step.is_multiple_of(n))
     }
 

@@ -5,7 +5,8 @@
 //! run; each run writes its own results folder (`runs/run_NNNN/`, with the `deck.toml` it ran),
 //! and `runs.csv` is rewritten after every run, so a study that is stopped continues where it
 //! stopped when started again with the same study file and folder: finished runs (those in
-//! `runs.csv` with the same factor values) are not run again. A run that fails (an unstable
+//! `runs.csv` with the same factor values) are not run again, and a run left midway continues
+//! from its checkpoint (`run_folder`). A run that fails (an unstable
 //! run stopped by the guard, say) is recorded as failed and its outputs left empty; the Morris
 //! statistics skip the elementary effects that need it. At the end: `morris.csv` and one
 //! μ*–σ plot per output (`plots/morris_<output>.png`), or, for a sweep of one factor, a plot of
@@ -18,7 +19,7 @@ use crate::deck::{DeckError, KeyPath, LoadedDeck};
 use crate::distributed::study::{collect, rounds, Outcome};
 use crate::plot::curve::write_named_curves_png;
 use crate::plot::morris_plot::write_morris_png;
-use crate::run::{check, run_with, RunControl, RunOptions};
+use crate::run::{check, run_with, RunControl, RunError, RunOptions};
 use crate::solver::ranks::Ranks;
 use crate::study::morris::{morris_statistics, Factor, FactorEffect, MorrisDesign, MorrisOptions};
 use crate::study::sweep::sweep_points;
@@ -28,6 +29,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
+
+pub mod run_folder;
+use run_folder::Start;
 
 /// Where and how a study runs.
 #[derive(Debug, Clone)]
@@ -362,27 +366,46 @@ fn io(what: &str, path: &Path, e: std::io::Error) -> StudyRunError {
     StudyRunError::Io(format!("cannot {what} {}: {e}", path.display()))
 }
 
-/// Runs one design point's `deck` in `dir` (cleared first: a run the last invocation did not
-/// finish starts again) and reads its outputs.
+/// Runs one design point's `deck` in `dir`, or continues it from the checkpoint a stopped
+/// invocation left there (`run_folder`), and reads its outputs.
 fn run_point(
     ls: &LoadedStudy,
     opts: &StudyOptions,
     deck: &LoadedDeck,
     dir: &Path,
 ) -> Result<Outcome, StudyRunError> {
-    if dir.exists() {
-        std::fs::remove_dir_all(dir).map_err(|e| io("clear", dir, e))?;
-    }
-    std::fs::create_dir_all(dir).map_err(|e| io("create", dir, e))?;
-    write_atomic(&dir.join("deck.toml"), deck.src.as_bytes())
-        .map_err(|e| io("write", &dir.join("deck.toml"), e))?;
     let started = Instant::now();
     let run_opts = RunOptions {
         out_dir: dir.to_path_buf(),
         threads: opts.threads,
         quiet: true,
     };
-    let (status, outputs) = match run_with(deck, &run_opts, &RunControl::default()) {
+    let control = RunControl {
+        checkpoint_every: Some(run_folder::CHECKPOINT_EVERY),
+        ..RunControl::default()
+    };
+    let mut result = match run_folder::prepare(dir, &deck.src).map_err(StudyRunError::Io)? {
+        Start::Afresh => run_with(deck, &run_opts, &control),
+        Start::FromCheckpoint => {
+            if !opts.quiet {
+                println!("{}: continued from its checkpoint", dir.display());
+            }
+            let restart = RunControl {
+                restart: true,
+                ..control.clone()
+            };
+            run_with(deck, &run_opts, &restart)
+        }
+    };
+    // A checkpoint this peridyn cannot continue (another version's): the run starts again.
+    if let Err(RunError::Checkpoint(e)) = &result {
+        if !opts.quiet {
+            println!("{}: {e}; started again", dir.display());
+        }
+        run_folder::start_afresh(dir, &deck.src).map_err(StudyRunError::Io)?;
+        result = run_with(deck, &run_opts, &control);
+    }
+    let (status, outputs) = match result {
         Ok(_) => ("ok".into(), read_outputs(ls, dir)?),
         Err(e) => {
             // One line, no commas: the status is a CSV cell.

@@ -219,8 +219,8 @@ fn run<'py>(
     let interrupt = Arc::new(AtomicBool::new(false));
     let control = RunControl {
         restart,
-        stop_after_step: None,
         interrupt: Some(interrupt.clone()),
+        ..RunControl::default()
     };
     let ld = &deck.ld;
     // The run goes on in a thread of its own while this one, the main thread, looks for

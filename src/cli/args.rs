@@ -65,7 +65,7 @@ pub enum Command {
     /// Run a parameter study of a deck (study file: the deck, the numbers to vary, Morris
     /// screening or a sweep, the outputs to read): every run in DIR/runs/, runs.csv, and for
     /// Morris morris.csv and a μ*–σ plot per output. Started again, it continues where it
-    /// stopped.
+    /// stopped (a run left midway, from its checkpoint: every 10 minutes).
     Study {
         study: PathBuf,
         /// Results folder (default: results/<study name>).
@@ -84,7 +84,7 @@ pub enum Command {
     /// Reproduce the papers' results: run validation cases (validation/seed*/*.toml; all of
     /// them when none is named), compare with the papers' numbers, and write
     /// docs/validation.md with its figures (full size). Started again, a case continues where
-    /// it stopped.
+    /// it stopped (a run left midway, from its checkpoint: every 10 minutes).
     Validate {
         cases: Vec<PathBuf>,
         /// The reduced (CI) version of each case: minutes, not hours; the report is left as

@@ -226,7 +226,7 @@ fn run_model<const D: usize, M: Material<D>>(
         0 => u64::MAX,
         k => report.steps.div_ceil(k).max(1),
     };
-    let checkpoints = checkpoints(&ld.deck, out, origin, snapshot_every);
+    let checkpoints = checkpoints(&ld.deck, out, origin, snapshot_every, None);
     let (mut observers, crack, path, surface) = match attached {
         Some(Attached {
             observers,

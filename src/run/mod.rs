@@ -80,6 +80,9 @@ pub struct RunControl {
     /// Once set (from another thread: Ctrl-C in Python), the run stops after the step in
     /// progress with `RunError::Interrupted`, its files finished up to that step.
     pub interrupt: Option<Arc<AtomicBool>>,
+    /// Also checkpoint at the first step after each stretch of this much wall time, whatever
+    /// the deck says (the runs of studies and validation cases, which continue from it).
+    pub checkpoint_every: Option<std::time::Duration>,
 }
 
 pub(crate) fn with_threads<T: Send>(
@@ -155,7 +158,13 @@ fn run_model<const D: usize, M: Material<D>>(
     let resume = restart::restore(control, out, &origin, &mut sim)?;
     resolved::write_start(ld, &resolved, &report, pores.as_deref(), out)?;
     let attached = observers::attach(ld, opts, &sim, &report, staged, resume.is_some())?;
-    let checkpoints = restart::checkpoints(&ld.deck, out, origin, attached.snapshot_every);
+    let checkpoints = restart::checkpoints(
+        &ld.deck,
+        out,
+        origin,
+        attached.snapshot_every,
+        control.checkpoint_every,
+    );
     let latest_checkpoint = checkpoints
         .as_ref()
         .map(|c| (c.path.clone(), c.origin.clone()));

@@ -2,12 +2,13 @@
 //! the last good state written after a diagnosed failure.
 
 use super::{RunControl, RunError};
-use crate::checkpoint::{Checkpoints, DriverState, Origin};
+use crate::checkpoint::{Checkpoints, DriverState, Origin, WallClock};
 use crate::deck::Deck;
 use crate::material::Material;
 use crate::observe::{Every, StepView};
 use crate::solver::{Fields, Simulation};
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// With `control.restart`, restores the state of the checkpoint in `out` into `sim` and
 /// returns its driver state. Called before anything is written: a refused restart leaves the
@@ -27,19 +28,27 @@ pub(super) fn restore<const D: usize, M: Material<D>>(
     Ok(Some(driver))
 }
 
-/// The checkpoints the deck asks for: at snapshots (`checkpoint`), every
-/// `checkpoint_interval` steps, or none.
+/// The checkpoints the deck asks for (at snapshots, `checkpoint`; every `checkpoint_interval`
+/// steps) and, with `wall_every`, one at the first step after each stretch of that much wall
+/// time, whatever the deck says; or none. A distributed run passes no `wall_every`: its ranks'
+/// clocks would not agree on the step.
 pub(crate) fn checkpoints(
     deck: &Deck,
     out: &Path,
     origin: Origin,
     snapshot_every: u64,
+    wall_every: Option<Duration>,
 ) -> Option<Checkpoints> {
-    (deck.output.checkpoint || deck.output.checkpoint_interval.is_some()).then(|| Checkpoints {
+    let by_deck = deck.output.checkpoint || deck.output.checkpoint_interval.is_some();
+    (by_deck || wall_every.is_some()).then(|| Checkpoints {
         path: out.join(crate::checkpoint::FILE_NAME),
         origin,
         snapshots: deck.output.checkpoint.then_some(Every(snapshot_every)),
         interval: deck.output.checkpoint_interval,
+        wall: wall_every.map(|every| WallClock {
+            every,
+            last: Instant::now(),
+        }),
     })
 }
 

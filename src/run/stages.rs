@@ -612,7 +612,11 @@ impl<'a, const D: usize> Watch<'a, D> {
             }
         }
         let step = sim.state.step;
-        if let Some(c) = self.checkpoints.as_ref().filter(|c| c.wants(step, last)) {
+        let due = self
+            .checkpoints
+            .as_mut()
+            .is_some_and(|c| c.wants(step, last));
+        if let Some(c) = self.checkpoints.as_ref().filter(|_| due) {
             let started = Instant::now();
             // The files first: a restart keeps what they hold up to the checkpoint's step.
             for o in self.observers.iter_mut() {

@@ -122,6 +122,19 @@ fn column_curves(
         if run.status != "ok" {
             continue;
         }
+        // A run measured by an earlier invocation whose folder is not here (another results
+        // folder or machine): its curve is left out, and said so, until it runs here again.
+        if !dir.exists() {
+            eprintln!(
+                "note: {}: plot `{}` leaves out the run at {} = {}: its folder {} is not here",
+                case.file.display(),
+                plot.name,
+                series_name(case),
+                run.series.map_or("—".into(), number),
+                dir.display()
+            );
+            continue;
+        }
         let (x, y) = (column(&plot.x)?, column(&plot.y)?);
         let name = match run.series {
             Some(v) => format!("peridyn, {} = {}", series_name(case), number(v)),

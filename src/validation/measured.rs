@@ -59,12 +59,3 @@ impl Measured {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))
     }
 }
-
-/// The wall time a finished run's `summary.txt` reports ("finished … in S s wall"), in minutes.
-pub fn run_wall_minutes(run_dir: &Path) -> Option<f64> {
-    let text = std::fs::read_to_string(run_dir.join("summary.txt")).ok()?;
-    let line = text.lines().find(|l| l.starts_with("finished"))?;
-    let words: Vec<&str> = line.split_whitespace().collect();
-    let at = words.iter().position(|w| *w == "wall,")?;
-    Some(words.get(at.checked_sub(2)?)?.parse::<f64>().ok()? / 60.0)
-}

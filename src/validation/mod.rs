@@ -11,8 +11,9 @@ pub mod report;
 pub mod verdict;
 
 use crate::deck::case::LoadedCase;
+use crate::study_run::run_folder;
 use crate::study_run::{run_study, StudyOptions};
-use measured::{run_wall_minutes, Measured, MeasuredRun};
+use measured::{Measured, MeasuredRun};
 use others::Others;
 use report::CaseEntry;
 use std::path::{Path, PathBuf};
@@ -153,7 +154,7 @@ pub fn run_case(
         measured.runs.clear();
         for (k, run) in report.runs.iter().enumerate() {
             let dir = out.join("runs").join(format!("run_{k:04}"));
-            let minutes = run_wall_minutes(&dir).unwrap_or(0.0);
+            let minutes = run_folder::wall_minutes(&dir).unwrap_or(0.0);
             measured.wall_minutes += minutes;
             measured.runs.push(MeasuredRun {
                 series: run.values.first().copied(),

@@ -441,6 +441,18 @@ fn checkpoint_false_writes_none() {
     run(&ld, &options(&out, None)).unwrap();
     assert!(out.join("history.csv").exists());
     assert!(!out.join("checkpoint.bin").exists());
+    // Checkpoints by the clock (a study's runs) are written whatever the deck says, here at
+    // every step, and change no other file.
+    let clocked = dir.join("clocked");
+    let control = RunControl {
+        checkpoint_every: Some(std::time::Duration::ZERO),
+        ..RunControl::default()
+    };
+    run_with(&ld, &options(&clocked, None), &control).unwrap();
+    let checkpoint = clocked.join("checkpoint.bin");
+    assert!(checkpoint.exists());
+    std::fs::remove_file(checkpoint).unwrap();
+    assert_same_files(&out, &clocked);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -515,5 +527,83 @@ fn restart_and_output_naming_two_folders_are_refused() {
     assert!(!out.status.success());
     assert!(err.contains("name different folders"), "{err}");
     assert!(!a.exists() && !b.exists(), "nothing is written");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A study's (or validation case's) run that an earlier invocation left midway continues
+/// from the checkpoint in its folder: the outputs and files are those of the run that never
+/// stopped, and the wall time of the first part is kept. A checkpoint that cannot be
+/// continued (here: damaged) makes the run start again.
+#[test]
+fn a_study_run_left_midway_continues_from_its_checkpoint() {
+    use peridyn::deck::study::LoadedStudy;
+    use peridyn::study_run::{run_folder, run_study, StudyOptions};
+    let dir = scratch("study");
+    let tip = "checkpoint_interval = 100\n[analysis.crack_tip]\ndirection = [1.0, 0.0]\ninterval = 10\nwindow = 3";
+    std::fs::write(
+        dir.join("plate.toml"),
+        deck_text(3.09e9, "steps = 600", tip),
+    )
+    .unwrap();
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        "version = 1\ndeck = \"plate.toml\"\nmethod = \"sweep\"\n\
+         [[factors]]\nkey = \"material.youngs_modulus\"\nvalues = [3.09e9]\n\
+         [[outputs]]\nname = \"tip\"\nfile = \"crack_tip.csv\"\ncolumn = \"crack_x\"\nreduce = \"final\"\n",
+    )
+    .unwrap();
+    let ls = LoadedStudy::from_file(&study).unwrap();
+    let study_in = |name: &str| {
+        let opts = StudyOptions {
+            out_dir: dir.join(name),
+            threads: Some(1),
+            quiet: true,
+        };
+        run_study(&ls, &opts).unwrap()
+    };
+    let whole = study_in("whole");
+    assert!(whole.runs[0].outputs[0].is_some(), "the crack must run");
+    let src = std::fs::read_to_string(dir.join("whole/runs/run_0000/deck.toml")).unwrap();
+    let point = LoadedDeck::from_str(&src, &dir.join("plate.toml")).unwrap();
+    // The stopped invocation: the folder as the study starts it, the run stopped after step
+    // 230 (its checkpoint at 200).
+    let stop_midway = |name: &str| {
+        let run_dir = dir.join(name).join("runs/run_0000");
+        run_folder::start_afresh(&run_dir, &src).unwrap();
+        let stop = RunControl {
+            stop_after_step: Some(230),
+            ..RunControl::default()
+        };
+        let stopped = run_with(&point, &options(&run_dir, Some(2)), &stop);
+        assert!(
+            matches!(stopped, Err(RunError::Stopped(230))),
+            "{stopped:?}"
+        );
+        run_dir
+    };
+    let run_dir = stop_midway("parts");
+    let parts = study_in("parts");
+    assert_eq!(parts.runs, whole.runs);
+    let earlier = run_dir.join("earlier_parts_wall_seconds");
+    let seconds: f64 = std::fs::read_to_string(&earlier)
+        .expect("the run was continued, not started again")
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(seconds >= 0.0);
+    std::fs::remove_file(&earlier).unwrap();
+    assert_same_files(&dir.join("whole/runs/run_0000"), &run_dir);
+    // A damaged checkpoint: the run starts again, with the same outputs.
+    let run_dir = stop_midway("damaged");
+    let checkpoint = run_dir.join("checkpoint.bin");
+    let mut bytes = std::fs::read(&checkpoint).unwrap();
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0xff;
+    std::fs::write(&checkpoint, bytes).unwrap();
+    let again = study_in("damaged");
+    assert_eq!(again.runs, whole.runs);
+    assert!(!run_dir.join("earlier_parts_wall_seconds").exists());
+    assert_same_files(&dir.join("whole/runs/run_0000"), &run_dir);
     let _ = std::fs::remove_dir_all(&dir);
 }

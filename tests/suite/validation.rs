@@ -466,3 +466,38 @@ fn a_comparison_across_cases_refuses_series_it_cannot_pair() {
     );
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// A curve plot of runs measured by an earlier invocation whose folders are not here (another
+/// results folder) leaves their curves out and is drawn; a folder that is here but misses the
+/// plot's file is an error naming it.
+#[test]
+fn a_plot_leaves_out_runs_whose_folders_are_not_here() {
+    let dir = scratch("figures");
+    let plot = "[[plots]]\nname = \"energy\"\ntitle = \"t\"\nx = { column = \"time\", label = \"t\" }\ny = { column = \"kinetic_energy\", label = \"E\" }\n";
+    let path = case_file(&dir);
+    let text = std::fs::read_to_string(&path).unwrap() + plot;
+    std::fs::write(&path, text).unwrap();
+    let case = LoadedCase::from_file(&path).unwrap();
+    let measured = Measured {
+        runs: vec![speed_run(300.0, 520.0), speed_run(400.0, 400.0)],
+        ..Measured::default()
+    };
+    let runs = dir.join("runs");
+    std::fs::create_dir_all(runs.join("run_0000")).unwrap();
+    std::fs::write(
+        runs.join("run_0000/history.csv"),
+        "time,kinetic_energy\n0,0\n1,2\n",
+    )
+    .unwrap();
+    let draw = || {
+        let figures = dir.join("figures");
+        peridyn::validation::figures::draw(&case, &measured, &Others::none(), &runs, &figures)
+    };
+    let drawn = draw().unwrap();
+    assert_eq!(drawn.len(), 1);
+    assert!(drawn[0].exists());
+    std::fs::create_dir_all(runs.join("run_0001")).unwrap();
+    let err = draw().unwrap_err();
+    assert!(err.contains("run_0001/history.csv"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
