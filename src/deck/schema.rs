@@ -805,6 +805,9 @@ pub struct OutputDeck {
     /// recorded in the history.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub openings: Vec<OpeningDeck>,
+    /// Points whose velocity and displacement (of the nearest node) the history records.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<ProbeDeck>,
     /// Write `checkpoint.bin` (the state to restart from) at every snapshot.
     #[serde(default = "default_true")]
     pub checkpoint: bool,
@@ -883,6 +886,15 @@ pub struct OpeningDeck {
     pub between: [Vec<f64>; 2],
 }
 
+/// `[[output.probes]]`: the velocity and displacement of the node nearest a point.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeDeck {
+    pub name: String,
+    /// The point (m), `dimension` coordinates.
+    pub at: Vec<f64>,
+}
+
 fn default_snapshots() -> u64 {
     10
 }
@@ -903,6 +915,7 @@ impl Default for OutputDeck {
             map_slice: None,
             plots: true,
             openings: Vec::new(),
+            probes: Vec::new(),
             checkpoint: true,
             checkpoint_interval: None,
             pieces: Pieces::Gathered,

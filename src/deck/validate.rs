@@ -362,20 +362,16 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     let mut names = std::collections::BTreeSet::new();
     for (k, o) in deck.output.openings.iter().enumerate() {
         let p = format!("output.openings[{k}]");
-        if o.name.is_empty() || !o.name.chars().all(|c| c.is_alphanumeric() || c == '_') {
-            out.push(DeckIssue::new(
-                &format!("{p}.name"),
-                format!("an opening's name becomes a history column: letters, digits and _ only, found {:?}", o.name),
-            ));
-        } else if !names.insert(o.name.clone()) {
-            out.push(DeckIssue::new(
-                &format!("{p}.name"),
-                format!("the opening {:?} is defined twice", o.name),
-            ));
-        }
+        column_name(&mut out, &mut names, &p, "opening", &o.name);
         for (j, point) in o.between.iter().enumerate() {
             vector(&mut out, &format!("{p}.between[{j}]"), point, d);
         }
+    }
+    let mut names = std::collections::BTreeSet::new();
+    for (k, probe) in deck.output.probes.iter().enumerate() {
+        let p = format!("output.probes[{k}]");
+        column_name(&mut out, &mut names, &p, "probe", &probe.name);
+        vector(&mut out, &format!("{p}.at"), &probe.at, d);
     }
 
     let softens = std::iter::once(&deck.material)
@@ -415,6 +411,33 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
 /// `variable_horizon = "traditional"` (seed 003 §2.2) is a comparison model for waves and
 /// critical-stretch fracture: its forces are not the gradient of an energy, and its bonds
 /// act on one end only, so it takes one material, explicit solvers and a stretch criterion.
+
+/// A name that becomes part of a history column (an opening's, a probe's): letters, digits
+/// and _ only, each once among its kind.
+fn column_name(
+    out: &mut Vec<DeckIssue>,
+    names: &mut std::collections::BTreeSet<String>,
+    path: &str,
+    kind: &str,
+    name: &str,
+) {
+    let article = if kind.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    if name.is_empty() || !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+        out.push(DeckIssue::new(
+            &format!("{path}.name"),
+            format!("{article} {kind}'s name becomes a history column: letters, digits and _ only, found {name:?}"),
+        ));
+    } else if !names.insert(name.to_string()) {
+        out.push(DeckIssue::new(
+            &format!("{path}.name"),
+            format!("the {kind} {name:?} is defined twice"),
+        ));
+    }
+}
 fn validate_traditional_horizons(out: &mut Vec<DeckIssue>, deck: &Deck) {
     let traditional = |m: &MaterialDeck| {
         matches!(

@@ -1,6 +1,6 @@
 //! The CSV history: energies, broken bonds, the step (time step or load increment, and
-//! iterations), the reaction force and mean displacement of every named node set, and the
-//! openings between probe nodes.
+//! iterations), the reaction force and mean displacement of every named node set, the
+//! openings between pairs of nodes and the motion of single nodes (probes).
 
 use super::csv::CsvHistory;
 use super::observer::{Every, Observer, StageStart, StepView};
@@ -13,6 +13,8 @@ pub struct History {
     sets: Vec<Vec<u32>>,
     /// Node pairs whose change of distance is recorded (`opening_<name>`).
     openings: Vec<(usize, usize)>,
+    /// Nodes whose velocity and displacement are recorded (`probe_<name>_…`).
+    probes: Vec<usize>,
     /// The stage in progress (from 1), when the run has several and the column `stage`.
     stage: Option<usize>,
     /// With contact or impactors: their energies join the balance and have columns.
@@ -53,6 +55,7 @@ impl History {
             every: Every(every),
             sets: set_names.iter().map(|(_, n)| n.clone()).collect(),
             openings: Vec::new(),
+            probes: Vec::new(),
             stage: None,
             contact: false,
         }
@@ -98,6 +101,20 @@ impl History {
         for (name, a, b) in openings {
             self.csv.add_column(format!("opening_{name}"));
             self.openings.push((*a, *b));
+        }
+        self
+    }
+
+    /// Adds columns `probe_<name>_velocity_<axis>` and `probe_<name>_displacement_<axis>`
+    /// per (name, node): one node's motion, e.g. the particle velocity of a passing wave.
+    pub fn with_probes<const D: usize>(mut self, probes: &[(String, usize)]) -> Self {
+        for (name, node) in probes {
+            for what in ["velocity", "displacement"] {
+                for axis in AXES.iter().take(D) {
+                    self.csv.add_column(format!("probe_{name}_{what}_{axis}"));
+                }
+            }
+            self.probes.push(*node);
         }
         self
     }
@@ -154,6 +171,10 @@ impl<const D: usize> Observer<D> for History {
         let x = &view.body.positions;
         for &(a, b) in &self.openings {
             row.push((state.current[b] - state.current[a]).norm() - (x[b] - x[a]).norm());
+        }
+        for &i in &self.probes {
+            row.extend(state.v[i].iter());
+            row.extend(state.u[i].iter());
         }
         if self.contact {
             row.push(ec);

@@ -153,6 +153,23 @@ pub fn write_history_plots(run_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
         "opening (m)",
         openings,
     )?;
+    // Every probe's velocity components against time (`probe_<name>_velocity_<axis>`).
+    let probes: Vec<(String, Vec<(f64, f64)>)> = table
+        .columns
+        .iter()
+        .filter(|c| c.starts_with("probe_") && c.contains("_velocity_"))
+        .filter_map(|c| {
+            let label = c.strip_prefix("probe_")?.replace("_velocity_", " v_");
+            Some((label, table.pairs("time", c)?))
+        })
+        .collect();
+    plot(
+        "probes.png".into(),
+        "Probes",
+        "time (s)",
+        "velocity (m/s)",
+        probes,
+    )?;
     // Load against each opening (e.g. load–CMOD): every loaded set's reaction along its axis.
     for o in &opening_names {
         let curves: Vec<(String, Vec<(f64, f64)>)> = loaded

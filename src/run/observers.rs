@@ -166,7 +166,8 @@ pub(crate) fn history<const D: usize>(
         k => k,
     };
     let h = History::new::<D>(path, every, &sets)
-        .with_openings(&opening_nodes(body, &deck.output.openings));
+        .with_openings(&opening_nodes(body, &deck.output.openings))
+        .with_probes::<D>(&probe_nodes(body, &deck.output.probes));
     let h = if deck.contact.is_some() || !deck.impactors.is_empty() {
         let names: Vec<String> = deck.impactors.iter().map(|i| i.name.clone()).collect();
         h.with_contact::<D>(&names)
@@ -180,32 +181,45 @@ pub(crate) fn history<const D: usize>(
     }
 }
 
-/// Each opening's name and the nodes nearest its two points (the lowest index on a tie).
+/// Each opening's name and the nodes nearest its two points.
 pub(crate) fn opening_nodes<const D: usize>(
     body: &crate::body::Body<D>,
     openings: &[crate::deck::schema::OpeningDeck],
 ) -> Vec<(String, usize, usize)> {
-    let nearest = |p: &[f64]| {
-        let p = crate::math::vector_from_slice::<D>(p);
-        (0..body.len())
-            .min_by(|&a, &b| {
-                (body.positions[a] - p)
-                    .norm()
-                    .total_cmp(&(body.positions[b] - p).norm())
-                    .then(a.cmp(&b))
-            })
-            .unwrap_or(0)
-    };
     openings
         .iter()
         .map(|o| {
             (
                 o.name.clone(),
-                nearest(&o.between[0]),
-                nearest(&o.between[1]),
+                nearest_node(body, &o.between[0]),
+                nearest_node(body, &o.between[1]),
             )
         })
         .collect()
+}
+
+/// Each probe's name and the node nearest its point.
+fn probe_nodes<const D: usize>(
+    body: &crate::body::Body<D>,
+    probes: &[crate::deck::schema::ProbeDeck],
+) -> Vec<(String, usize)> {
+    probes
+        .iter()
+        .map(|p| (p.name.clone(), nearest_node(body, &p.at)))
+        .collect()
+}
+
+/// The node nearest `point` (the lowest index on a tie).
+fn nearest_node<const D: usize>(body: &crate::body::Body<D>, point: &[f64]) -> usize {
+    let p = crate::math::vector_from_slice::<D>(point);
+    (0..body.len())
+        .min_by(|&a, &b| {
+            (body.positions[a] - p)
+                .norm()
+                .total_cmp(&(body.positions[b] - p).norm())
+                .then(a.cmp(&b))
+        })
+        .unwrap_or(0)
 }
 
 /// Adds an analysis observer to the run, first continuing its files from the checkpoint's
