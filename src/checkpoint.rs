@@ -96,15 +96,13 @@ pub struct WallClock {
 impl Checkpoints {
     /// Whether `step` gets a checkpoint; a step taken by the clock restarts it.
     pub fn wants(&mut self, step: u64, last: bool) -> bool {
-        let by_clock = self
-            .wall
-            .as_mut()
-            .is_some_and(|w| w.last.elapsed() >= w.every);
-        if by_clock {
-            if let Some(w) = self.wall.as_mut() {
+        let by_clock = match self.wall.as_mut() {
+            Some(w) if w.last.elapsed() >= w.every => {
                 w.last = Instant::now();
+                true
             }
-        }
+            _ => false,
+        };
         by_clock
             || self.snapshots.is_some_and(|e| e.hits(step, last))
             || self.interval.is_some_and(|n| step.is_multiple_of(n))
