@@ -384,7 +384,8 @@ fn run_point(
         checkpoint_every: Some(run_folder::CHECKPOINT_EVERY),
         ..RunControl::default()
     };
-    let mut result = match run_folder::prepare(dir, &deck.src).map_err(StudyRunError::Io)? {
+    let start = run_folder::prepare(dir, &deck.src).map_err(StudyRunError::Io)?;
+    let mut result = match start {
         Start::Afresh => run_with(deck, &run_opts, &control),
         Start::FromCheckpoint => {
             if !opts.quiet {
@@ -397,9 +398,12 @@ fn run_point(
             run_with(deck, &run_opts, &restart)
         }
     };
-    // A checkpoint this peridyn cannot continue (another version's): the run starts again.
-    if let Err(RunError::Checkpoint(e)) = &result {
-        if !opts.quiet {
+    // A folder that cannot be continued (a checkpoint of another version or deck, files that
+    // do not reach the checkpoint's step): the run starts again. A run that fails on its own
+    // (a blow-up) is not run twice.
+    let unusable = matches!(result, Err(RunError::Checkpoint(_) | RunError::Io(_)));
+    if start == Start::FromCheckpoint && unusable {
+        if let (false, Err(e)) = (opts.quiet, &result) {
             println!("{}: {e}; started again", dir.display());
         }
         run_folder::start_afresh(dir, &deck.src).map_err(StudyRunError::Io)?;
