@@ -408,10 +408,6 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     out
 }
 
-/// `variable_horizon = "traditional"` (seed 003 §2.2) is a comparison model for waves and
-/// critical-stretch fracture: its forces are not the gradient of an energy, and its bonds
-/// act on one end only, so it takes one material, explicit solvers and a stretch criterion.
-
 /// A name that becomes part of a history column (an opening's, a probe's): letters, digits
 /// and _ only, each once among its kind.
 fn column_name(
@@ -438,6 +434,10 @@ fn column_name(
         ));
     }
 }
+
+/// `variable_horizon = "traditional"` (seed 003 §2.2) is a comparison model for waves and
+/// critical-stretch fracture: its forces are not the gradient of an energy, and its bonds
+/// act on one end only, so it takes one material, explicit solvers and a stretch criterion.
 fn validate_traditional_horizons(out: &mut Vec<DeckIssue>, deck: &Deck) {
     let traditional = |m: &MaterialDeck| {
         matches!(
