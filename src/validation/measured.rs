@@ -17,7 +17,8 @@ pub struct Measured {
     pub size: String,
     /// The wall time of all runs, as each run's summary reports it.
     pub wall_minutes: f64,
-    /// The threads each run used.
+    /// The threads of the invocation that wrote the file; a run measured by an earlier one
+    /// keeps its own in `MeasuredRun::threads`.
     pub threads: usize,
     pub runs: Vec<MeasuredRun>,
 }
@@ -30,11 +31,19 @@ pub struct MeasuredRun {
     /// "ok" or "failed: …".
     pub status: String,
     pub wall_minutes: f64,
+    /// The threads it ran on, when not the file's (a run kept from an earlier invocation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threads: Option<usize>,
     /// Each output that has a value.
     pub outputs: BTreeMap<String, f64>,
 }
 
 impl Measured {
+    /// The threads of each run, in run order.
+    pub fn run_threads(&self) -> impl Iterator<Item = usize> + '_ {
+        self.runs.iter().map(|r| r.threads.unwrap_or(self.threads))
+    }
+
     pub fn read(path: &Path) -> Result<Option<Measured>, String> {
         match std::fs::read_to_string(path) {
             Ok(text) => toml::from_str(&text)

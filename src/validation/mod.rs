@@ -160,6 +160,7 @@ pub fn run_case(
                 series: run.values.first().copied(),
                 status: run.status.clone(),
                 wall_minutes: minutes,
+                threads: None,
                 outputs: study
                     .study
                     .outputs
@@ -191,11 +192,28 @@ pub fn keep_full(
     let series = case.series_values(false);
     let mut kept = measured.clone();
     if let Some(earlier) = Measured::read(&path)? {
-        for run in earlier.runs {
+        // A run found finished (the same record as before) or not reached keeps the threads
+        // it ran on, which may not be this invocation's.
+        let own_threads = |run: &MeasuredRun| {
+            Some(run.threads.unwrap_or(earlier.threads)).filter(|t| *t != kept.threads)
+        };
+        for run in &earlier.runs {
+            let same = |r: &MeasuredRun| {
+                r.series == run.series
+                    && r.status == run.status
+                    && r.wall_minutes == run.wall_minutes
+                    && r.outputs == run.outputs
+            };
+            if let Some(found) = kept.runs.iter_mut().find(|r| same(r)) {
+                found.threads = own_threads(run);
+            }
             let reached = kept.runs.iter().any(|r| r.series == run.series);
             if !reached && run.series.is_some_and(|v| series.contains(&v)) {
                 kept.wall_minutes += run.wall_minutes;
-                kept.runs.push(run);
+                kept.runs.push(MeasuredRun {
+                    threads: own_threads(run),
+                    ..run.clone()
+                });
             }
         }
         let position = |v: Option<f64>| series.iter().position(|s| Some(*s) == v);

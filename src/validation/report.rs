@@ -194,6 +194,18 @@ fn measured(r: &Row) -> String {
     value(r.measured, &r.unit)
 }
 
+/// "1 thread", "2 threads", or "1-2 threads" when the runs were measured by invocations
+/// with different thread counts.
+fn threads_used(m: &Measured) -> String {
+    let lo = m.run_threads().min().unwrap_or(m.threads);
+    let hi = m.run_threads().max().unwrap_or(m.threads);
+    match (lo, hi) {
+        (1, 1) => "1 thread".into(),
+        (lo, hi) if lo == hi => format!("{lo} threads"),
+        (lo, hi) => format!("{lo}-{hi} threads"),
+    }
+}
+
 fn case_section(e: &CaseEntry, rows: &[Row], figure_dir: &str, figures_present: &Path) -> String {
     let c = &e.case.case;
     let mut md = String::new();
@@ -206,12 +218,11 @@ fn case_section(e: &CaseEntry, rows: &[Row], figure_dir: &str, figures_present: 
     );
     let run = match &e.measured {
         Some(m) => format!(
-            "Full run: {} run{} in {} min on {} thread{}.",
+            "Full run: {} run{} in {} min on {}.",
             m.runs.len(),
             if m.runs.len() == 1 { "" } else { "s" },
             number(m.wall_minutes),
-            m.threads,
-            if m.threads == 1 { "" } else { "s" }
+            threads_used(m)
         ),
         None if c.deck.is_some() => "Not yet run at full size.".into(),
         None => "Nothing to run here.".into(),

@@ -7,7 +7,7 @@ use peridyn::deck::case::LoadedCase;
 use peridyn::validation::measured::{Measured, MeasuredRun};
 use peridyn::validation::others::Others;
 use peridyn::validation::verdict::{judge_case, Status};
-use peridyn::validation::{load_all, report_texts, validate, Layout, ValidateOptions};
+use peridyn::validation::{keep_full, load_all, report_texts, validate, Layout, ValidateOptions};
 use std::path::{Path, PathBuf};
 
 fn repository() -> &'static Path {
@@ -198,6 +198,7 @@ fn speed_run(series: f64, speed: f64) -> MeasuredRun {
         series: Some(series),
         status: "ok".into(),
         wall_minutes: 1.0,
+        threads: None,
         outputs: [("speed".to_string(), speed)].into_iter().collect(),
     }
 }
@@ -500,4 +501,50 @@ fn a_plot_leaves_out_runs_whose_folders_are_not_here() {
     let err = draw().unwrap_err();
     assert!(err.contains("run_0001/history.csv"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A case continued by an invocation with another thread count keeps, for each run it found
+/// finished, the threads that run was measured on, and the report names both counts.
+#[test]
+fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
+    let root = scratch("threads");
+    let (layout, case) = two_cases(&root, "[30.0, 40.0]");
+    let earlier = Measured {
+        case: "a".into(),
+        size: "full".into(),
+        wall_minutes: 1.0,
+        threads: 2,
+        runs: vec![speed_run(300.0, 480.0)],
+    };
+    earlier.write(&layout.measured_file(&case)).unwrap();
+    let now = Measured {
+        threads: 1,
+        wall_minutes: 2.0,
+        runs: vec![speed_run(300.0, 480.0), speed_run(400.0, 590.0)],
+        ..earlier.clone()
+    };
+    let opts = ValidateOptions {
+        out_dir: root.join("results"),
+        reduced: false,
+        first: None,
+        threads: Some(1),
+        quiet: true,
+    };
+    keep_full(&case, &now, &layout, &opts).unwrap();
+    let kept = Measured::read(&layout.measured_file(&case))
+        .unwrap()
+        .unwrap();
+    assert_eq!(kept.run_threads().collect::<Vec<_>>(), vec![2, 1]);
+    let (report, _) = report_texts(&layout).unwrap();
+    assert!(
+        report.contains("2 runs in 2 min on 1-2 threads"),
+        "{report}"
+    );
+    // Written again by a one-thread invocation that ran nothing, it keeps both counts.
+    keep_full(&case, &kept, &layout, &opts).unwrap();
+    let again = Measured::read(&layout.measured_file(&case))
+        .unwrap()
+        .unwrap();
+    assert_eq!(again.run_threads().collect::<Vec<_>>(), vec![2, 1]);
+    let _ = std::fs::remove_dir_all(&root);
 }
