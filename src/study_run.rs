@@ -537,6 +537,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         Some(Reduce::Mean) => Reduction::Mean,
         Some(Reduce::Count) => Reduction::Count,
         Some(Reduce::Pearson) => Reduction::Pearson(column(o.against.as_deref())?),
+        Some(Reduce::MaxDistance) => Reduction::MaxDistance(column(o.against.as_deref())?),
         Some(Reduce::Angle) => Reduction::Angle {
             against: column(o.against.as_deref())?,
             first: o.first.unwrap_or(0.0),

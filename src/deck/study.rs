@@ -135,7 +135,8 @@ pub struct OutputSpec {
     pub until: Option<f64>,
     /// Only rows with `time` ≥ this (s) count (a crack speed once the crack runs).
     pub from: Option<f64>,
-    /// `pearson`: the second column of the same file; `angle`: the abscissa column.
+    /// `pearson`, `max_distance`: the second column of the same file; `angle`: the abscissa
+    /// column.
     pub against: Option<String>,
     /// `at_first_above`: the column that must pass `threshold` (in `when_file`).
     pub when_column: Option<String>,
@@ -191,6 +192,9 @@ pub enum Reduce {
     /// The Pearson correlation with the column `against` (a crack path against its
     /// reference in `crack_path_comparison.csv`; seed 003 Eq. 17).
     Pearson,
+    /// The largest |column − `against`| (a crack path's largest distance from its reference
+    /// in `crack_path_comparison.csv`).
+    MaxDistance,
     /// The angle (degrees) of the least-squares line of the column against the column
     /// `against`, over the rows within `first` of the first row (a crack's initial direction).
     Angle,
@@ -571,7 +575,7 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     let Some(reduce) = o.reduce else {
         issue(
             "reduce",
-            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson or angle".into(),
+            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson, max_distance or angle".into(),
         );
         return issues;
     };
@@ -602,15 +606,18 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
         ),
         _ => {}
     }
-    let uses_against = matches!(reduce, Reduce::Pearson | Reduce::Angle);
+    let uses_against = matches!(
+        reduce,
+        Reduce::Pearson | Reduce::MaxDistance | Reduce::Angle
+    );
     match &o.against {
         None if uses_against => issue(
             "reduce",
-            "pearson and angle need `against`: the second column of the file".into(),
+            "pearson, max_distance and angle need `against`: the second column of the file".into(),
         ),
         Some(_) if !uses_against => issue(
             "against",
-            "`against` is used by reduce = \"pearson\" or \"angle\" only".into(),
+            "`against` is used by reduce = \"pearson\", \"max_distance\" or \"angle\" only".into(),
         ),
         _ => {}
     }

@@ -38,6 +38,9 @@ pub enum Reduction {
     /// The Pearson correlation of the column with a second one, over the rows where both have
     /// values (seed 003 Eq. 17: a crack path against its reference).
     Pearson(usize),
+    /// The largest |column − second column| over the rows where both have values (how far a
+    /// crack path strays from its reference at the same abscissa).
+    MaxDistance(usize),
     /// The angle in degrees, atan of the least-squares slope, of the column against the
     /// column `against` over the rows whose `against` lies within `first` of the first row's
     /// (the direction of a crack path's first part); a point repeated in successive rows (a
@@ -160,6 +163,14 @@ impl Table {
                 let (x, y): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
                 pearson(&x, &y)
             }
+            Reduction::MaxDistance(other) => rows
+                .iter()
+                .filter_map(|r| {
+                    r.get(other)
+                        .filter(|v| !v.is_nan())
+                        .map(|&o| (r[c] - o).abs())
+                })
+                .reduce(f64::max),
             Reduction::Angle { against, first } => {
                 let mut points: Vec<(f64, f64)> = rows
                     .iter()
@@ -346,6 +357,17 @@ mod tests {
         assert!((first_three.unwrap() - 1.0).abs() < 1e-15);
         let all = r("path", Reduction::Pearson(reference), w(None, None)).unwrap();
         assert!(all < 1.0 && all > 0.98, "{all}");
+        // The path strays furthest from its reference on the last row (4 against 7).
+        let furthest = r("path", Reduction::MaxDistance(reference), w(None, None));
+        assert_eq!(furthest, Some(3.0));
+        assert_eq!(
+            r(
+                "path",
+                Reduction::MaxDistance(reference),
+                w(None, Some(1.0))
+            ),
+            Some(2.0)
+        );
         // One pair: undefined.
         assert_eq!(
             r("path", Reduction::Pearson(reference), w(None, Some(0.0))),
