@@ -538,6 +538,10 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         Some(Reduce::Count) => Reduction::Count,
         Some(Reduce::Pearson) => Reduction::Pearson(column(o.against.as_deref())?),
         Some(Reduce::MaxDistance) => Reduction::MaxDistance(column(o.against.as_deref())?),
+        Some(Reduce::Slope) => Reduction::Slope {
+            against: column(o.against.as_deref())?,
+            between: o.between,
+        },
         Some(Reduce::Angle) => Reduction::Angle {
             against: column(o.against.as_deref())?,
             first: o.first.unwrap_or(0.0),

@@ -135,8 +135,8 @@ pub struct OutputSpec {
     pub until: Option<f64>,
     /// Only rows with `time` ≥ this (s) count (a crack speed once the crack runs).
     pub from: Option<f64>,
-    /// `pearson`, `max_distance`: the second column of the same file; `angle`: the abscissa
-    /// column.
+    /// `pearson`, `max_distance`: the second column of the same file; `angle`, `slope`: the
+    /// abscissa column.
     pub against: Option<String>,
     /// `at_first_above`: the column that must pass `threshold` (in `when_file`).
     pub when_column: Option<String>,
@@ -147,6 +147,9 @@ pub struct OutputSpec {
     /// `time_of_max`: a row within this of the largest value counts as at it (a tip's
     /// position is resolved to one grid spacing; default 0).
     pub within: Option<f64>,
+    /// `slope`: only rows whose value of the column lies in [low, high] (a crack tip between
+    /// the notch and the far edge).
+    pub between: Option<[f64; 2]>,
 }
 
 impl OutputSpec {
@@ -195,6 +198,10 @@ pub enum Reduce {
     /// The largest |column − `against`| (a crack path's largest distance from its reference
     /// in `crack_path_comparison.csv`).
     MaxDistance,
+    /// The least-squares slope of the column against the column `against`, over the rows
+    /// whose value lies `between` two levels (a crack's speed: its tip's x against time, as a
+    /// reader takes it from a plot of the tip's position).
+    Slope,
     /// The angle (degrees) of the least-squares line of the column against the column
     /// `against`, over the rows within `first` of the first row (a crack's initial direction).
     Angle,
@@ -575,7 +582,7 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     let Some(reduce) = o.reduce else {
         issue(
             "reduce",
-            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson, max_distance or angle".into(),
+            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson, max_distance, slope or angle".into(),
         );
         return issues;
     };
@@ -608,16 +615,29 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     }
     let uses_against = matches!(
         reduce,
-        Reduce::Pearson | Reduce::MaxDistance | Reduce::Angle
+        Reduce::Pearson | Reduce::MaxDistance | Reduce::Slope | Reduce::Angle
     );
     match &o.against {
         None if uses_against => issue(
             "reduce",
-            "pearson, max_distance and angle need `against`: the second column of the file".into(),
+            "pearson, max_distance, slope and angle need `against`: the second column of the file"
+                .into(),
         ),
         Some(_) if !uses_against => issue(
             "against",
-            "`against` is used by reduce = \"pearson\", \"max_distance\" or \"angle\" only".into(),
+            "`against` is used by reduce = \"pearson\", \"max_distance\", \"slope\" or \"angle\" only"
+                .into(),
+        ),
+        _ => {}
+    }
+    match o.between {
+        Some(b) if reduce != Reduce::Slope => issue(
+            "between",
+            format!("`between` ({b:?}) is used by reduce = \"slope\" only"),
+        ),
+        Some([low, high]) if !(low.is_finite() && high.is_finite() && low < high) => issue(
+            "between",
+            format!("expected [low, high], finite with low < high, got [{low}, {high}]"),
         ),
         _ => {}
     }

@@ -41,6 +41,13 @@ pub enum Reduction {
     /// The largest |column − second column| over the rows where both have values (how far a
     /// crack path strays from its reference at the same abscissa).
     MaxDistance(usize),
+    /// The least-squares slope of the column against a second one (the abscissa), over the
+    /// rows whose value of the column lies in [low, high] when given (a crack tip's x against
+    /// time between the notch and the far edge: its speed as a plot of the tip shows it).
+    Slope {
+        against: usize,
+        between: Option<[f64; 2]>,
+    },
     /// The angle in degrees, atan of the least-squares slope, of the column against the
     /// column `against` over the rows whose `against` lies within `first` of the first row's
     /// (the direction of a crack path's first part); a point repeated in successive rows (a
@@ -171,6 +178,15 @@ impl Table {
                         .map(|&o| (r[c] - o).abs())
                 })
                 .reduce(f64::max),
+            Reduction::Slope { against, between } => {
+                let inside = |v: f64| between.is_none_or(|[low, high]| (low..=high).contains(&v));
+                let points: Vec<(f64, f64)> = rows
+                    .iter()
+                    .filter(|r| inside(r[c]))
+                    .filter_map(|r| r.get(against).filter(|v| !v.is_nan()).map(|&a| (a, r[c])))
+                    .collect();
+                least_squares_slope(&points)
+            }
             Reduction::Angle { against, first } => {
                 let mut points: Vec<(f64, f64)> = rows
                     .iter()
@@ -368,6 +384,22 @@ mod tests {
             ),
             Some(2.0)
         );
+        // A tip's speed: the reference against time, 2 per unit in the band [2, 6], bent by
+        // the last row (7) outside it.
+        let time = t.column("time").unwrap();
+        let speed = |between| {
+            r(
+                "reference",
+                Reduction::Slope {
+                    against: time,
+                    between,
+                },
+                w(None, None),
+            )
+        };
+        assert_eq!(speed(Some([2.0, 6.0])), Some(2.0));
+        assert!((speed(None).unwrap() - 1.7).abs() < 1e-12);
+        assert_eq!(speed(Some([6.5, 7.0])), None, "one point has no slope");
         // One pair: undefined.
         assert_eq!(
             r("path", Reduction::Pearson(reference), w(None, Some(0.0))),

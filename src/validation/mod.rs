@@ -192,8 +192,9 @@ pub fn keep_full(
     let series = case.series_values(false);
     let mut kept = measured.clone();
     if let Some(earlier) = Measured::read(&path)? {
-        // A run found finished (the same record as before) or not reached keeps the threads
-        // it ran on, which may not be this invocation's.
+        // A run found finished (the same folder: the same wall time, its outputs read again,
+        // perhaps more of them) or not reached keeps the threads it ran on, which may not be
+        // this invocation's.
         let own_threads = |run: &MeasuredRun| {
             Some(run.threads.unwrap_or(earlier.threads)).filter(|t| *t != kept.threads)
         };
@@ -202,7 +203,6 @@ pub fn keep_full(
                 r.series == run.series
                     && r.status == run.status
                     && r.wall_minutes == run.wall_minutes
-                    && r.outputs == run.outputs
             };
             if let Some(found) = kept.runs.iter_mut().find(|r| same(r)) {
                 found.threads = own_threads(run);

@@ -275,6 +275,14 @@ fn bad_study_files_are_refused_at_their_key() {
             "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[outputs]]\nname = \"r\"\ncolumn = \"reaction_top_y\"\nreduce = \"final\"\nwithin = 1.0\n",
             "outputs[0].within: `within` (1) is used by reduce = \"time_of_max\" only",
         ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[outputs]]\nname = \"v\"\nfile = \"crack_tip.csv\"\ncolumn = \"crack_x\"\nreduce = \"slope\"\nagainst = \"time\"\nbetween = [0.03, 0.004]\n",
+            "outputs[0].between: expected [low, high], finite with low < high, got [0.03, 0.004]",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[outputs]]\nname = \"v\"\nfile = \"crack_tip.csv\"\ncolumn = \"crack_x\"\nreduce = \"max\"\nbetween = [0.004, 0.03]\n",
+            "outputs[0].between: `between` ([0.004, 0.03]) is used by reduce = \"slope\" only",
+        ),
     ];
     for (body, expected) in cases {
         let err = LoadedStudy::from_file(&study_file(&dir, body))

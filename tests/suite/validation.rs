@@ -540,8 +540,14 @@ fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
         report.contains("2 runs in 2 min on 1-2 threads"),
         "{report}"
     );
-    // Written again by a one-thread invocation that ran nothing, it keeps both counts.
-    keep_full(&case, &kept, &layout, &opts).unwrap();
+    // Written again by a one-thread invocation that ran nothing but read one output more
+    // from the runs' folders, it keeps both counts.
+    let mut reread = kept.clone();
+    for run in &mut reread.runs {
+        run.threads = None;
+        run.outputs.insert("slope".into(), 1.0);
+    }
+    keep_full(&case, &reread, &layout, &opts).unwrap();
     let again = Measured::read(&layout.measured_file(&case))
         .unwrap()
         .unwrap();
