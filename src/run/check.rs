@@ -41,8 +41,9 @@ pub struct TimeEstimate {
 /// A quasi-static run's estimate: its first load step relaxes from rest, every later one
 /// from the predictor's extrapolation, and each costs its iterations × the time of one
 /// iteration (one force evaluation and the vector updates). Both steps are taken on the
-/// built model with at most `PROBE_ITERATIONS` iterations each; a relaxation that did not
-/// converge in them is extrapolated at its mean rate of decrease (linear convergence). The
+/// built model with at most `PROBE_ITERATIONS` iterations (and `PROBE_SECONDS`) each; a
+/// relaxation that did not converge in them is extrapolated at its mean rate of decrease
+/// (linear convergence). The
 /// estimate is that of a body that does not break: a load step in which bonds break
 /// relaxes again after every decision, and one in which a crack runs through takes many
 /// relaxations (`CRACK_STEP_RATIO`).
@@ -61,8 +62,13 @@ pub struct QuasiStaticBasis {
 /// 49 and 52 on seed 001's PMB plate with ADR, 75 on seed 000's NB-NUG plate with NCG).
 pub const CRACK_STEP_RATIO: [f64; 2] = [50.0, 75.0];
 
-/// Iterations allowed to each of the two load steps `check` takes.
+/// Iterations allowed to each of the two load steps `check` takes …
 const PROBE_ITERATIONS: u64 = 400;
+/// … and at most about this much wall time each (on a large body 400 iterations take
+/// minutes), but never fewer than `PROBE_ITERATIONS_MIN` iterations: the extrapolation needs a
+/// rate of decrease.
+const PROBE_SECONDS: f64 = 2.0;
+const PROBE_ITERATIONS_MIN: u64 = 20;
 
 impl std::fmt::Display for TimeEstimate {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -170,7 +176,7 @@ fn time_steps<const D: usize, M: Material<D>>(
 }
 
 /// A quasi-static run's first two load steps, each with at most `PROBE_ITERATIONS`
-/// iterations (see `QuasiStaticBasis`); `None` for a run of no load steps or when a
+/// iterations and about `PROBE_SECONDS` (see `QuasiStaticBasis`); `None` for a run of no load steps or when a
 /// relaxation fails or does not decrease the residual (the run itself will say why).
 fn time_load_steps<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
@@ -181,10 +187,16 @@ fn time_load_steps<const D: usize, M: Material<D>>(
         return None;
     }
     let tolerance = settings.tolerance;
+    // An iteration costs about one force evaluation: time one to size the probes.
+    let started = Instant::now();
+    sim.refresh_forces().ok()?;
+    let evaluation = started.elapsed().as_secs_f64().max(1e-9);
+    let budget =
+        ((PROBE_SECONDS / evaluation) as u64).clamp(PROBE_ITERATIONS_MIN, PROBE_ITERATIONS);
     let mut solver = QuasiStatic::new(sim, settings, sim.dt);
-    let first = solver.probe(sim, PROBE_ITERATIONS).ok()?;
+    let first = solver.probe(sim, budget).ok()?;
     let later = if steps > 1 {
-        Some(solver.probe(sim, PROBE_ITERATIONS).ok()?)
+        Some(solver.probe(sim, budget).ok()?)
     } else {
         None
     };
