@@ -6,13 +6,20 @@
 //!   (u64, FNV-1a 64 of its text);
 //! - sizes (u64 each): dimension, nodes, directed bond entries, history words, previous
 //!   positions, previous own-half matrices (words), the quasi-static predictor's
-//!   displacements (0 or nodes), impactors;
+//!   displacements (0 or nodes), impactors, and the load step in progress (0: none; 1: a
+//!   paused relaxation; 2: one with its start kept for the Gershgorin fallback);
 //! - payload: the State scalars, the driver state (time step controller, stage in progress,
 //!   quasi-static solver), then the arrays (u, v, current, force, body_force as D f64 per
 //!   node; status as u8; history as f64; previous as D f64 each; the previous matrices as
 //!   f64; the predictor's
 //!   displacements as D f64 each; per impactor its position, velocity and force as D f64
 //!   each and its penalty energy);
+//! - the load step in progress, when the quasi-static solver paused inside one: its scalars
+//!   (t0, t1, the iterations, equilibria, broken bond halves and residual so far, the
+//!   relaxation's iterations and first residual), then u0, the applied forces at t0, the ADR
+//!   velocities and last accelerations (D f64 per node each), the work record (history,
+//!   previous positions, previous matrices, as the state's), and with the fallback start its
+//!   u, current positions, forces, body forces and work record;
 //! - FNV-1a 64 of every byte before it.
 //!
 //! Written atomically (temp file + rename): the file on disk is always a whole checkpoint.
@@ -21,7 +28,8 @@ use crate::atomic_file::{with_path, write_atomic_with};
 use crate::math::Vector;
 use crate::observe::Every;
 use crate::solver::impactor::ImpactorState;
-use crate::solver::quasi_static::QuasiStaticMemory;
+use crate::solver::quasi_static::{LoadStepReport, QuasiStaticMemory, StepInProgress};
+use crate::solver::quasi_static_memory::{RelaxationStart, WorkRecord};
 use crate::state::State;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -29,9 +37,11 @@ use std::time::{Duration, Instant};
 
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
-const FORMAT: u32 = 4;
+const FORMAT: u32 = 5;
 /// State and driver scalars in the payload.
-const SCALARS: usize = 20;
+const SCALARS: usize = 21;
+/// Scalars of a load step in progress.
+const IN_STEP_SCALARS: usize = 8;
 
 /// Where a checkpoint comes from: it continues only with the same program and deck.
 #[derive(Debug, Clone, PartialEq)]
@@ -153,6 +163,8 @@ pub enum CheckpointError {
     },
     #[error("checkpoint {} is corrupt: {what}", path.display())]
     Corrupt { path: PathBuf, what: String },
+    #[error("checkpoint {} was written inside a quasi-static load step, which only a run in one process pauses in and continues: continue it without MPI", .0.display())]
+    InsideLoadStep(PathBuf),
 }
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -193,6 +205,55 @@ fn put_vectors<const D: usize>(w: &mut impl Write, v: &[Vector<D>]) -> io::Resul
     v.iter()
         .flat_map(|x| x.iter())
         .try_for_each(|c| w.write_all(&c.to_le_bytes()))
+}
+
+fn put_f64s(w: &mut impl Write, a: &[f64]) -> io::Result<()> {
+    a.iter().try_for_each(|x| w.write_all(&x.to_le_bytes()))
+}
+
+/// The load step the quasi-static solver paused in, when it did.
+fn in_step<const D: usize>(driver: &DriverState<D>) -> Option<&StepInProgress<D>> {
+    driver.quasi_static.as_ref()?.in_step.as_deref()
+}
+
+/// The header's word for the load step in progress (see the module docs).
+fn in_step_kind<const D: usize>(driver: &DriverState<D>) -> u64 {
+    in_step(driver).map_or(0, |p| 1 + p.fallback_start.is_some() as u64)
+}
+
+fn put_record<const D: usize>(w: &mut impl Write, r: &WorkRecord<D>) -> io::Result<()> {
+    put_f64s(w, &r.history)?;
+    put_vectors(w, &r.previous)?;
+    put_f64s(w, &r.previous_matrices)
+}
+
+/// The load step in progress, in the order `read_in_step` reads it.
+fn put_in_step<const D: usize>(w: &mut impl Write, p: &StepInProgress<D>) -> io::Result<()> {
+    let r = &p.report;
+    let scalars: [u64; IN_STEP_SCALARS] = [
+        p.t0.to_bits(),
+        p.t1.to_bits(),
+        r.iterations,
+        r.equilibria as u64,
+        r.broken,
+        r.residual.to_bits(),
+        p.iterations,
+        p.start_residual.to_bits(),
+    ];
+    for x in scalars {
+        w.write_all(&x.to_le_bytes())?;
+    }
+    for a in [&p.u0, &p.load0, &p.velocity, &p.previous_acceleration] {
+        put_vectors(w, a)?;
+    }
+    put_record(w, &p.record)?;
+    if let Some(f) = &p.fallback_start {
+        for a in [&f.u, &f.current, &f.force, &f.body_force] {
+            put_vectors(w, a)?;
+        }
+        put_record(w, &f.record)?;
+    }
+    Ok(())
 }
 
 /// The arrays of a checkpoint, in the file's order: the node vectors, the bond status and
@@ -271,10 +332,6 @@ pub fn write_section<const D: usize>(
     owned: usize,
     w: &mut impl Write,
 ) -> io::Result<()> {
-    let f64s = |w: &mut _, a: &[f64]| {
-        a.iter()
-            .try_for_each(|x| Write::write_all(w, &x.to_le_bytes()))
-    };
     match section {
         Section::U => put_vectors(w, &state.u[..owned]),
         Section::V => put_vectors(w, &state.v[..owned]),
@@ -282,11 +339,11 @@ pub fn write_section<const D: usize>(
         Section::Force => put_vectors(w, &state.force[..owned]),
         Section::BodyForce => put_vectors(w, &state.body_force[..owned]),
         Section::Status => w.write_all(&state.status),
-        Section::History => f64s(w, &state.history),
+        Section::History => put_f64s(w, &state.history),
         Section::Previous => put_vectors(w, &state.previous[..owned.min(state.previous.len())]),
         Section::PreviousMatrices => {
             let words = state.previous_matrices.len() / state.u.len().max(1);
-            f64s(w, &state.previous_matrices[..owned * words])
+            put_f64s(w, &state.previous_matrices[..owned * words])
         }
         Section::Predictor => match predictor(driver) {
             Some(u) => put_vectors(w, &u[..owned]),
@@ -374,6 +431,7 @@ pub fn write_with<const D: usize>(
             sizes.matrices,
             sizes.predictor,
             driver.impactors.len(),
+            in_step_kind(driver) as usize,
         ] {
             w.write_all(&(size as u64).to_le_bytes())?;
         }
@@ -399,6 +457,7 @@ pub fn write_with<const D: usize>(
             qs.map_or(0, |m| m.iterations),
             qs_previous.is_some() as u64,
             qs_previous.map_or(0.0, |(t, _)| *t).to_bits(),
+            qs.is_some_and(|m| m.gershgorin) as u64,
         ];
         for x in scalars {
             w.write_all(&x.to_le_bytes())?;
@@ -407,6 +466,9 @@ pub fn write_with<const D: usize>(
         for im in &driver.impactors {
             put_vectors(&mut w, &[im.position, im.velocity, im.force])?;
             w.write_all(&im.energy.to_le_bytes())?;
+        }
+        if let Some(p) = in_step(driver) {
+            put_in_step(&mut w, p)?;
         }
         let hash = w.hash;
         w.inner.write_all(&hash.to_le_bytes())
@@ -489,6 +551,8 @@ struct Head<const D: usize> {
     /// Sizes of the file's arrays (its history words may be a record this build reads past).
     sizes: Sizes,
     impactors: usize,
+    /// The load step in progress (the header's word: 0, 1 or 2).
+    in_step: u64,
     /// Where the arrays begin.
     arrays: u64,
 }
@@ -534,6 +598,24 @@ impl<const D: usize> Head<D> {
     fn impactors_start(&self) -> u64 {
         let (start, element) = self.section(Section::Predictor);
         start + element * self.sizes.predictor as u64
+    }
+
+    /// Where the load step in progress begins (after the impactors) and its length.
+    fn in_step_bytes(&self) -> (u64, u64) {
+        let start = self
+            .impactors_start()
+            .saturating_add((self.impactors as u64).saturating_mul(((3 * D + 1) * 8) as u64));
+        let s = &self.sizes;
+        let vectors = (s.nodes * D * 8) as u64;
+        let record = (8 * (s.history + s.previous * D + s.matrices)) as u64;
+        let len = match self.in_step {
+            0 => 0,
+            kind => {
+                let fallback = if kind == 2 { 4 * vectors + record } else { 0 };
+                (8 * IN_STEP_SCALARS) as u64 + 4 * vectors + record + fallback
+            }
+        };
+        (start, len)
     }
 }
 
@@ -609,6 +691,22 @@ fn read_head<const D: usize>(
         });
     }
     let impactors = r.u64()? as usize;
+    let in_step = r.u64()?;
+    if in_step > 2 {
+        return Err(CheckpointError::Corrupt {
+            path: path.to_path_buf(),
+            what: format!("its load step in progress is marked {in_step} (0, 1 or 2 expected)"),
+        });
+    }
+    // A paused load step's work record has the state's history words.
+    if in_step != 0 && sizes.history != expected.history {
+        return Err(CheckpointError::Size {
+            path: path.to_path_buf(),
+            what: "damage history words",
+            found: sizes.history as u64,
+            expected: expected.history as u64,
+        });
+    }
     let arrays = (r.pos + SCALARS * 8) as u64;
     let mut head = Head {
         scalars: State::empty(),
@@ -616,12 +714,11 @@ fn read_head<const D: usize>(
         predictor: None,
         sizes,
         impactors,
+        in_step,
         arrays,
     };
-    let expected_len = head
-        .impactors_start()
-        .saturating_add((impactors as u64).saturating_mul(((3 * D + 1) * 8) as u64))
-        .saturating_add(8);
+    let (in_step_start, in_step_len) = head.in_step_bytes();
+    let expected_len = in_step_start.saturating_add(in_step_len).saturating_add(8);
     if file_len != expected_len {
         return Err(CheckpointError::Truncated {
             path: path.to_path_buf(),
@@ -650,14 +747,22 @@ fn read_head<const D: usize>(
     let qs = r.u64()? == 1;
     let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
     let (has_previous, previous_time) = (r.u64()? == 1, r.f64()?);
+    let gershgorin = r.u64()? == 1;
     if qs {
         head.driver.quasi_static = Some(QuasiStaticMemory {
             increment,
             largest_load,
             iterations,
             previous: None,
+            gershgorin,
+            in_step: None,
         });
         head.predictor = has_previous.then_some(previous_time);
+    } else if in_step != 0 {
+        return Err(CheckpointError::Corrupt {
+            path: path.to_path_buf(),
+            what: "a load step in progress without a quasi-static solver".into(),
+        });
     }
     Ok(head)
 }
@@ -748,7 +853,83 @@ pub fn restore<const D: usize>(
     r.vectors(&mut displacements)?;
     with_predictor(&mut head, displacements);
     head.driver.impactors = read_impactors(&mut r, head.impactors)?;
+    if head.in_step != 0 {
+        let p = read_in_step(&mut r, state, head.in_step == 2)?;
+        if let Some(m) = head.driver.quasi_static.as_mut() {
+            m.in_step = Some(Box::new(p));
+        }
+    }
     Ok(head.driver)
+}
+
+/// The load step in progress (`r` at its start), with arrays of `state`'s sizes.
+fn read_in_step<const D: usize>(
+    r: &mut Reader,
+    state: &State<D>,
+    with_fallback_start: bool,
+) -> Result<StepInProgress<D>, CheckpointError> {
+    let n = state.u.len();
+    let vectors = |r: &mut Reader| -> Result<Vec<Vector<D>>, CheckpointError> {
+        let mut v = vec![Vector::<D>::zeros(); n];
+        r.vectors(&mut v)?;
+        Ok(v)
+    };
+    let (t0, t1) = (r.f64()?, r.f64()?);
+    let report = LoadStepReport {
+        iterations: r.u64()?,
+        equilibria: r.u64()? as u32,
+        broken: r.u64()?,
+        residual: r.f64()?,
+    };
+    let (iterations, start_residual) = (r.u64()?, r.f64()?);
+    let (u0, load0) = (vectors(r)?, vectors(r)?);
+    let (velocity, previous_acceleration) = (vectors(r)?, vectors(r)?);
+    let record = read_record(r, state)?;
+    let fallback_start = if with_fallback_start {
+        Some(RelaxationStart {
+            u: vectors(r)?,
+            current: vectors(r)?,
+            force: vectors(r)?,
+            body_force: vectors(r)?,
+            record: read_record(r, state)?,
+        })
+    } else {
+        None
+    };
+    Ok(StepInProgress {
+        t0,
+        t1,
+        u0,
+        load0,
+        report,
+        record,
+        iterations,
+        start_residual,
+        velocity,
+        previous_acceleration,
+        fallback_start,
+    })
+}
+
+/// A work record of `state`'s sizes.
+fn read_record<const D: usize>(
+    r: &mut Reader,
+    state: &State<D>,
+) -> Result<WorkRecord<D>, CheckpointError> {
+    let mut history = vec![0.0; state.history.len()];
+    copy_f64s(&mut history, r.take(state.history.len() * 8)?);
+    let mut previous = vec![Vector::<D>::zeros(); state.previous.len()];
+    r.vectors(&mut previous)?;
+    let mut previous_matrices = vec![0.0; state.previous_matrices.len()];
+    copy_f64s(
+        &mut previous_matrices,
+        r.take(state.previous_matrices.len() * 8)?,
+    );
+    Ok(WorkRecord {
+        history,
+        previous,
+        previous_matrices,
+    })
 }
 
 /// f64s from their little-endian bytes (as many as both hold).
@@ -796,6 +977,9 @@ impl<const D: usize> Parts<D> {
             path,
         };
         let mut head = read_head::<D>(&mut r, origin, expected, len)?;
+        if head.in_step != 0 {
+            return Err(CheckpointError::InsideLoadStep(path.to_path_buf()));
+        }
         // The checksum, streamed over everything before it.
         file.seek(SeekFrom::Start(0)).map_err(cannot)?;
         let mut hash = FNV_OFFSET;
@@ -889,6 +1073,85 @@ mod tests {
             dt: 1e-8,
             iterations: 3,
         }
+    }
+
+    /// The quasi-static solver's memory inside a paused load step (its start, its decisions
+    /// so far, the relaxation's velocities and start) comes back as it was written; one
+    /// process continues it, a distributed restart refuses it by name.
+    #[test]
+    fn a_load_step_paused_inside_comes_back_whole() {
+        let dir = std::env::temp_dir().join(format!("peridyn-in-step-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(FILE_NAME);
+        let origin = Origin::new("deck", Path::new("deck.toml"));
+        let saved = state(1);
+        let vectors = |k: f64| -> Vec<Vector<2>> {
+            (0..3).map(|i| Vector::<2>::new(k + i as f64, -k)).collect()
+        };
+        let record = |k: f64| WorkRecord {
+            history: (0..6).map(|i| k * i as f64).collect(),
+            previous: Vec::new(),
+            previous_matrices: Vec::new(),
+        };
+        let in_step = StepInProgress {
+            t0: 0.3,
+            t1: 0.4,
+            u0: vectors(1.0),
+            load0: vectors(2.0),
+            report: LoadStepReport {
+                iterations: 812,
+                equilibria: 3,
+                broken: 14,
+                residual: 2.5e-3,
+            },
+            record: record(0.5),
+            iterations: 97,
+            start_residual: 0.125,
+            velocity: vectors(3.0),
+            previous_acceleration: vectors(4.0),
+            fallback_start: Some(RelaxationStart {
+                u: vectors(5.0),
+                current: vectors(6.0),
+                force: vectors(7.0),
+                body_force: vectors(8.0),
+                record: record(0.25),
+            }),
+        };
+        let driver = DriverState {
+            quasi_static: Some(QuasiStaticMemory {
+                increment: 0.1,
+                largest_load: 9.0,
+                previous: Some((0.2, vectors(9.0))),
+                iterations: 4000,
+                gershgorin: true,
+                in_step: Some(Box::new(in_step)),
+            }),
+            ..DriverState::default()
+        };
+        write(&path, &origin, &saved, &driver).unwrap();
+        let mut now = state(1);
+        now.u.fill(Vector::zeros());
+        let restored = restore(&path, &origin, &mut now).unwrap();
+        assert_eq!(restored, driver);
+        assert!(now.u == saved.u && now.history == saved.history);
+        // Without the fallback start the block is shorter, and still read whole.
+        let mut shorter = driver.clone();
+        if let Some(p) = shorter
+            .quasi_static
+            .as_mut()
+            .and_then(|m| m.in_step.as_mut())
+        {
+            p.fallback_start = None;
+        }
+        write(&path, &origin, &saved, &shorter).unwrap();
+        assert_eq!(restore(&path, &origin, &mut now).unwrap(), shorter);
+        let parts = Parts::<2>::open(&path, &origin, &Sizes::of(&saved, &shorter));
+        assert!(
+            matches!(parts, Err(CheckpointError::InsideLoadStep(_))),
+            "{:?}",
+            parts.err()
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// A checkpoint with a per-bond record that this build keeps none of for the deck (PMB's

@@ -35,6 +35,11 @@ pub enum Command {
         /// Stop after this step as if killed (tests of restarts).
         #[arg(long, hide = true)]
         stop_after_step: Option<u64>,
+        /// Also write a checkpoint every M minutes of wall time, whatever the deck says, and
+        /// inside a quasi-static load step that lasts longer (its relaxation pauses for it):
+        /// a killed run loses at most M minutes. One process only.
+        #[arg(long, value_name = "M")]
+        checkpoint_minutes: Option<f64>,
     },
     /// Draw the PNG plots of a finished (or interrupted) run's history.csv into RUN_DIR/plots:
     /// energies, load–displacement per loaded node set, openings, broken bonds, time step.

@@ -50,7 +50,11 @@ pub(super) fn run_command(command: Command, ranks: Arc<dyn Ranks>) -> ExitCode {
             quiet,
             restart,
             stop_after_step,
+            checkpoint_minutes,
         } => {
+            if checkpoint_minutes.is_some() {
+                return refuse("--checkpoint-minutes is for runs in one process: the ranks' clocks would not agree on the step to checkpoint; use checkpoint_interval in [output]".into());
+            }
             let ld = match LoadedDeck::from_file(&deck) {
                 Ok(ld) => ld,
                 Err(e) => return refuse(e.to_string()),

@@ -24,6 +24,16 @@ fn deck_name(deck: &std::path::Path) -> String {
         .unwrap_or_else(|| "run".into())
 }
 
+/// `--checkpoint-minutes M` as a wall-clock interval: M must be a positive number of minutes.
+fn wall_interval(minutes: f64) -> Result<std::time::Duration, String> {
+    if !(minutes.is_finite() && minutes > 0.0) {
+        return Err(format!(
+            "--checkpoint-minutes {minutes}: expected a positive number of minutes (e.g. 10)"
+        ));
+    }
+    Ok(std::time::Duration::from_secs_f64(minutes * 60.0))
+}
+
 /// A run's results folder: `-o`, or the folder `--restart DIR` continues (the same one when
 /// both are given), or results/<deck name>.
 fn run_folder(
@@ -72,9 +82,11 @@ pub fn main(world: Option<Arc<dyn Ranks>>) -> ExitCode {
             quiet,
             restart,
             stop_after_step,
+            checkpoint_minutes,
         } => (|| {
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;
             let out_dir = run_folder(&deck, output, &restart)?;
+            let checkpoint_every = checkpoint_minutes.map(wall_interval).transpose()?;
             let summary = run_with(
                 &ld,
                 &RunOptions {
@@ -85,6 +97,7 @@ pub fn main(world: Option<Arc<dyn Ranks>>) -> ExitCode {
                 &RunControl {
                     restart: restart.is_some(),
                     stop_after_step,
+                    checkpoint_every,
                     ..RunControl::default()
                 },
             )

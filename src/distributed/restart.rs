@@ -43,9 +43,10 @@ const fn impactor_words(d: usize) -> usize {
 }
 
 /// The quasi-static solver's scalars after them: whether it has a memory, its increment,
-/// largest load and iterations, whether it has a predictor's point, and that point's time
-/// (its displacements, D words per owned node, follow the node vectors).
-const QUASI_STATIC: usize = 6;
+/// largest load and iterations, whether it has a predictor's point, that point's time (its
+/// displacements, D words per owned node, follow the node vectors), and whether Gershgorin's
+/// masses replaced the spectral ones.
+const QUASI_STATIC: usize = 7;
 
 /// With `control.restart`, restores every rank's share of the checkpoint in `out` into
 /// `sim` (a distributed run's) and returns the driver state, on every rank. Every rank calls
@@ -215,6 +216,7 @@ fn part_of<const D: usize>(
         f64::from_bits(qs.map_or(0, |m| m.iterations)),
         predictor.is_some() as u8 as f64,
         predictor.unwrap_or(0.0),
+        qs.is_some_and(|m| m.gershgorin) as u8 as f64,
     ]);
     for im in &driver.impactors {
         for x in [&im.position, &im.velocity, &im.force] {
@@ -316,6 +318,8 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
                 let u = previous.chunks_exact(D);
                 (qs[5], u.map(Vector::<D>::from_column_slice).collect())
             }),
+            gershgorin: qs[6] == 1.0,
+            in_step: None,
         });
     }
     // A non-central model's previous evaluation, as this rank keeps it (ghosts: exchanged).
@@ -455,6 +459,8 @@ mod tests {
                 largest_load: 7.5,
                 previous: Some((9e-7, previous.clone())),
                 iterations: 4321,
+                gershgorin: true,
+                in_step: None,
             }),
             ..DriverState::default()
         };

@@ -77,6 +77,9 @@ pub struct RunControl {
     pub restart: bool,
     /// Stop after this step as a killed run would (files not finished): for tests of restarts.
     pub stop_after_step: Option<u64>,
+    /// Stop at this pause inside a quasi-static load step (each writes a checkpoint; they
+    /// come with `checkpoint_every`), as a killed run would: for tests of restarts.
+    pub stop_at_pause: Option<u64>,
     /// Once set (from another thread: Ctrl-C in Python), the run stops after the step in
     /// progress with `RunError::Interrupted`, its files finished up to that step.
     pub interrupt: Option<Arc<AtomicBool>>,
@@ -180,6 +183,7 @@ fn run_model<const D: usize, M: Material<D>>(
         let stop_after = control.stop_after_step;
         let mut watch = stages::Watch::new(&mut observers, checkpoints, stop_after, resume, staged)
             .with_interrupt(control.interrupt.clone())
+            .with_stop_at_pause(control.stop_at_pause)
             .with_progress(!opts.quiet);
         let settings = solver_settings(&ld.deck);
         stages::drive_stages(&mut sim, settings, &report, plans, &mut watch)

@@ -55,13 +55,17 @@ pub(crate) fn checkpoints(
 /// After a diagnosed failure (NaN, energy blow-up, a relaxation that does not converge):
 /// writes the latest checkpoint's state, the last good one, as `fields/last_good_step_N.vtu`
 /// (not in `fields.pvd`). `None` when there is no checkpoint to read or the file cannot be
-/// written: the run's own error is what matters then.
+/// written: the run's own error is what matters then; and when the checkpoint was written
+/// inside a load step, whose state is a relaxation's iterate, not an equilibrium.
 pub(super) fn write_last_good<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     (path, origin): &(std::path::PathBuf, Origin),
     out: &std::path::Path,
 ) -> Option<std::path::PathBuf> {
-    crate::checkpoint::restore(path, origin, &mut sim.state).ok()?;
+    let driver = crate::checkpoint::restore(path, origin, &mut sim.state).ok()?;
+    if driver.quasi_static.is_some_and(|m| m.in_step.is_some()) {
+        return None;
+    }
     let fields = out.join("fields");
     std::fs::create_dir_all(&fields).ok()?;
     let file = fields.join(format!("last_good_step_{:08}.vtu", sim.state.step));

@@ -11,9 +11,11 @@ use crate::deck::stages::StagePlan;
 use crate::material::Material;
 use crate::math::Vector;
 use crate::observe::{Observer, StageStart, StepView};
-use crate::solver::quasi_static::Ticker;
+use crate::solver::quasi_static::{QuasiStaticMemory, Ticker};
 use crate::solver::Fields;
-use crate::solver::{AdaptiveDt, AdaptiveDtSettings, QuasiStatic, QuasiStaticSettings, Simulation};
+use crate::solver::{
+    AdaptiveDt, AdaptiveDtSettings, Advanced, Pause, QuasiStatic, QuasiStaticSettings, Simulation,
+};
 use crate::state::State;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -435,8 +437,14 @@ impl<const D: usize> Loop<D> {
                     *k += 1;
                     continue;
                 }
-                // One committed piece: the whole load step, or a part of a split one.
-                solver.advance(sim, target)?;
+                // One committed piece: the whole load step, or a part of a split one; or a
+                // pause inside it when a checkpoint falls due.
+                solver.pause = watch.pause_at().map(Pause::At);
+                if solver.advance_or_pause(sim, target)? == Advanced::Paused {
+                    let memory = Some(solver.memory());
+                    watch.checkpoint_inside_step(sim, memory)?;
+                    continue;
+                }
                 sim.check_finite()?;
                 let stage_end = *k == *load_steps && sim.state.time >= target;
                 watch.commit(sim, stage_end, |sim| self.driver(sim))?;
@@ -505,6 +513,10 @@ pub(crate) struct Watch<'a, const D: usize> {
     source: Option<&'a mut dyn ViewSource<D>>,
     /// Progress lines inside long quasi-static load steps (`RunOptions::quiet` off).
     progress: bool,
+    /// Stop at this pause inside a load step, as a killed run would (tests); and the pauses
+    /// so far.
+    stop_at_pause: Option<u64>,
+    pauses: u64,
 }
 
 /// How the observers see a committed step when the simulation is not the whole body: a
@@ -549,6 +561,8 @@ impl<'a, const D: usize> Watch<'a, D> {
             at: Position::new(resume, staged),
             source: None,
             progress: false,
+            stop_at_pause: None,
+            pauses: 0,
         }
     }
 
@@ -563,6 +577,8 @@ impl<'a, const D: usize> Watch<'a, D> {
             at,
             source: None,
             progress: false,
+            stop_at_pause: None,
+            pauses: 0,
         }
     }
 
@@ -581,6 +597,52 @@ impl<'a, const D: usize> Watch<'a, D> {
     pub(crate) fn with_source(mut self, source: &'a mut dyn ViewSource<D>) -> Self {
         self.source = Some(source);
         self
+    }
+
+    /// The run stops at the `n`-th pause inside a load step, after its checkpoint (tests).
+    pub(crate) fn with_stop_at_pause(mut self, n: Option<u64>) -> Self {
+        self.stop_at_pause = n;
+        self
+    }
+
+    /// When a quasi-static relaxation should pause for the checkpoint the wall clock asks
+    /// for: none without one, and none in a distributed run (whose ranks' clocks would not
+    /// agree on the iteration).
+    fn pause_at(&self) -> Option<Instant> {
+        let wall = self.checkpoints.as_ref()?.wall.as_ref()?;
+        self.source.is_none().then(|| wall.last + wall.every)
+    }
+
+    /// Writes the checkpoint of a load step paused inside (`quasi_static`: the solver's
+    /// memory, which holds it), after the observers' files: they end at the last committed
+    /// step, where a continued run's observers continue.
+    fn checkpoint_inside_step<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        quasi_static: Option<QuasiStaticMemory<D>>,
+    ) -> Result<(), RunError> {
+        let Some(c) = self.checkpoints.as_mut() else {
+            return Ok(());
+        };
+        let started = Instant::now();
+        for o in self.observers.iter_mut() {
+            o.flush()?;
+        }
+        let solver = DriverState {
+            quasi_static,
+            ..DriverState::default()
+        };
+        let driver = self.at.driver_state(sim, solver);
+        c.write(&sim.state, &driver)?;
+        if let Some(w) = c.wall.as_mut() {
+            w.last = Instant::now();
+        }
+        sim.counters.observe += started.elapsed();
+        self.pauses += 1;
+        match self.stop_at_pause {
+            Some(n) if self.pauses >= n => Err(RunError::Stopped(sim.state.step)),
+            _ => Ok(()),
+        }
     }
 
     /// The run stops after the step in progress once `flag` is set.

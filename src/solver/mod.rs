@@ -10,12 +10,13 @@ pub mod forces;
 pub mod impactor;
 pub mod ncg;
 pub mod quasi_static;
+pub mod quasi_static_memory;
 pub mod ranks;
 pub mod verlet;
 
 pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};
 pub use forces::{bond_force, ForceEngine};
 pub use quasi_static::{
-    AdrMass, EquilibriumMethod, LoadStepReport, QuasiStatic, QuasiStaticSettings,
+    AdrMass, Advanced, EquilibriumMethod, LoadStepReport, Pause, QuasiStatic, QuasiStaticSettings,
 };
 pub use verlet::{Fields, Simulation, StepError};

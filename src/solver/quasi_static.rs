@@ -69,6 +69,8 @@
 //! equilibrium path; exact for a proportional elastic step).
 
 use super::ncg::Ncg;
+pub use super::quasi_static_memory::{Pause, QuasiStaticMemory, StepInProgress};
+use super::quasi_static_memory::{RelaxationStart, WorkRecord};
 use super::ranks::{chunked_sums, ordered_folds, ordered_sum};
 use super::{Simulation, StepError};
 use crate::material::Material;
@@ -138,7 +140,7 @@ impl Default for QuasiStaticSettings {
 }
 
 /// What one committed (sub)step took.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct LoadStepReport {
     /// ADR iterations, over every relaxation of the step.
     pub iterations: u64,
@@ -222,6 +224,48 @@ pub struct QuasiStatic<const D: usize> {
     pub spectral_radius: f64,
     /// Force evaluations spent measuring it (not counted as iterations).
     pub setup_evaluations: u64,
+    /// A relaxation with the spectral masses failed: Gershgorin's are in use for good.
+    fell_back: bool,
+    /// When an ADR relaxation pauses for a checkpoint (never when unset).
+    pub pause: Option<Pause>,
+    /// The load step in progress may pause: ADR, one process, and no state kept to undo the
+    /// step (a step that may still be halved).
+    may_pause: bool,
+    /// The load step paused inside a relaxation, continued by the next `advance`.
+    paused: Option<Box<StepInProgress<D>>>,
+}
+
+/// How a call of `advance` ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Advanced {
+    /// A load step (or a part of a halved one) committed.
+    Committed(LoadStepReport),
+    /// Paused inside a relaxation, as `QuasiStatic::pause` asked: the memory holds the step
+    /// in progress, and the next call continues it.
+    Paused,
+}
+
+/// How a load step's relaxations and decisions ended.
+enum Equilibrated<const D: usize> {
+    /// Equilibrium, and the decision broke nothing.
+    Done,
+    /// More bond halves broke than the step may break.
+    GaveUp,
+    Paused(Box<RelaxationPaused<D>>),
+}
+
+/// How a relaxation ended.
+enum Relaxed<const D: usize> {
+    /// At equilibrium after this many iterations.
+    Converged(u64),
+    Paused(Box<RelaxationPaused<D>>),
+}
+
+/// A relaxation paused between two iterations (the ADR velocities stay in the solver).
+struct RelaxationPaused<const D: usize> {
+    iterations: u64,
+    start_residual: f64,
+    fallback_start: Option<RelaxationStart<D>>,
 }
 
 /// Progress inside a load step: a line on stderr at most every `every` (none when `None`), so
@@ -308,54 +352,23 @@ impl Ticker {
     }
 }
 
-/// The bonds' work record as the last decision left it (module doc): their history words and
-/// the positions and correspondence matrices of the evaluation that recorded them.
-struct WorkRecord<const D: usize> {
-    history: Vec<f64>,
-    previous: Vec<Vector<D>>,
-    previous_matrices: Vec<f64>,
-}
-
-impl<const D: usize> WorkRecord<D> {
-    fn of(state: &State<D>) -> Self {
-        WorkRecord {
-            history: state.history.clone(),
-            previous: state.previous.clone(),
-            previous_matrices: state.previous_matrices.clone(),
-        }
-    }
-
-    fn keep(&mut self, state: &State<D>) {
-        self.history.clone_from(&state.history);
-        self.previous.clone_from(&state.previous);
-        self.previous_matrices.clone_from(&state.previous_matrices);
-    }
-
-    fn restore(&self, state: &mut State<D>) {
-        state.history.clone_from(&self.history);
-        state.previous.clone_from(&self.previous);
-        state.previous_matrices.clone_from(&self.previous_matrices);
-    }
-}
-
-/// What a quasi-static solver carries from one committed load step to the next (besides the
-/// state): a checkpoint saves it, so a continued run relaxes from the same start.
-#[derive(Debug, Clone, PartialEq)]
-pub struct QuasiStaticMemory<const D: usize> {
-    pub increment: f64,
-    pub largest_load: f64,
-    pub previous: Option<(f64, Vec<Vector<D>>)>,
-    pub iterations: u64,
-}
-
 impl<const D: usize> QuasiStatic<D> {
-    /// The memory a checkpoint keeps.
+    /// The memory a checkpoint keeps (with the ADR velocities of a paused load step).
     pub fn memory(&self) -> QuasiStaticMemory<D> {
+        let in_step = self.paused.as_ref().map(|p| {
+            let mut p = p.clone();
+            p.velocity.clone_from(&self.velocity);
+            p.previous_acceleration
+                .clone_from(&self.previous_acceleration);
+            p
+        });
         QuasiStaticMemory {
             increment: self.increment,
             largest_load: self.largest_load,
             previous: self.previous.clone(),
             iterations: self.iterations,
+            gershgorin: self.fell_back,
+            in_step,
         }
     }
 
@@ -365,6 +378,20 @@ impl<const D: usize> QuasiStatic<D> {
         self.largest_load = memory.largest_load;
         self.previous = memory.previous;
         self.iterations = memory.iterations;
+        if memory.gershgorin {
+            self.use_gershgorin();
+        }
+        self.paused = memory.in_step.map(|mut p| {
+            self.velocity = std::mem::take(&mut p.velocity);
+            self.previous_acceleration = std::mem::take(&mut p.previous_acceleration);
+            p
+        });
+    }
+
+    /// Gershgorin's masses from now on (a relaxation failed with the spectral ones).
+    fn use_gershgorin(&mut self) {
+        self.mass.clone_from(&self.gershgorin);
+        (self.spectral, self.spectral_pending, self.fell_back) = (false, false, true);
     }
 
     /// Sets up the masses for `sim`; `increment` is the nominal load step (pseudo-time).
@@ -406,34 +433,66 @@ impl<const D: usize> QuasiStatic<D> {
             spectral: false,
             spectral_radius: 0.0,
             setup_evaluations: 0,
+            fell_back: false,
+            pause: None,
+            may_pause: false,
+            paused: None,
         }
     }
 
     /// Commits one load step ending at `target` (pseudo-time), or a part of it when the step
     /// breaks more than `max_broken_per_step` bond halves (the state is restored exactly and
     /// the increment halved, up to `max_splits` times). Returns what the committed step took.
+    /// Pauses, if `pause` asks for them, are passed through.
     pub fn advance<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
         target: f64,
     ) -> Result<LoadStepReport, StepError> {
+        loop {
+            if let Advanced::Committed(report) = self.advance_or_pause(sim, target)? {
+                return Ok(report);
+            }
+        }
+    }
+
+    /// As `advance`, but returns at a pause inside the step (`pause`), which the next call
+    /// continues.
+    pub fn advance_or_pause<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        target: f64,
+    ) -> Result<Advanced, StepError> {
         let limit = self.settings.max_broken_per_step;
         let smallest = self.nominal / f64::powi(2.0, self.settings.max_splits as i32);
         loop {
-            // A remainder below a millionth of the nominal increment is rounding: go to target.
-            let t1 = sim.state.time + self.increment;
-            let t1 = if t1 >= target - 1e-6 * self.nominal {
-                target
-            } else {
-                t1
+            let (t1, abort_above) = match self.paused.as_deref() {
+                // A paused step could not give up (it keeps no state to undo it with).
+                Some(p) => (p.t1, None),
+                None => {
+                    // A remainder below a millionth of the nominal increment is rounding: go
+                    // to target.
+                    let t1 = sim.state.time + self.increment;
+                    let t1 = if t1 >= target - 1e-6 * self.nominal {
+                        target
+                    } else {
+                        t1
+                    };
+                    // A step that may still be halved gives up as soon as it breaks too much.
+                    (t1, limit.filter(|_| self.increment > smallest * 1.5))
+                }
             };
-            // A step that may still be halved gives up as soon as it breaks too much.
-            let abort_above = limit.filter(|_| self.increment > smallest * 1.5);
             let saved = abort_above.map(|_| sim.state.clone());
-            let Some(report) = self.load_step(sim, t1, abort_above)? else {
-                sim.state = saved.expect("saved when a step may give up");
-                self.increment *= 0.5;
-                continue;
+            // Undoing a step needs the whole state at its start, which no checkpoint keeps.
+            self.may_pause = abort_above.is_none() && sim.share.is_none();
+            let report = match self.load_step(sim, t1, abort_above)? {
+                Some(Advanced::Committed(report)) => report,
+                Some(Advanced::Paused) => return Ok(Advanced::Paused),
+                None => {
+                    sim.state = saved.expect("saved when a step may give up");
+                    self.increment *= 0.5;
+                    continue;
+                }
             };
             if report.broken == 0 {
                 // A quiet step lets the increment grow back to the nominal one.
@@ -441,7 +500,7 @@ impl<const D: usize> QuasiStatic<D> {
             }
             sim.counters.steps += 1;
             sim.counters.bonds_broken += report.broken;
-            return Ok(report);
+            return Ok(Advanced::Committed(report));
         }
     }
 
@@ -498,10 +557,14 @@ impl<const D: usize> QuasiStatic<D> {
         self.start_step(sim, t1);
         self.toggle_protection(sim);
         let max = std::mem::replace(&mut self.settings.max_iterations, budget);
+        self.may_pause = false;
         let result = (|| {
             sim.refresh_forces()?;
             let start_residual = self.residual(sim).0;
-            let relaxed = self.relax(sim);
+            let relaxed = self.relax(sim, None).map(|r| match r {
+                Relaxed::Converged(n) => n,
+                Relaxed::Paused(_) => unreachable!("a probe does not pause"),
+            });
             Ok::<_, StepError>((start_residual, relaxed))
         })();
         self.settings.max_iterations = max;
@@ -527,74 +590,145 @@ impl<const D: usize> QuasiStatic<D> {
 
     /// Applies the load at t1, relaxes, lets the damage law decide and re-relaxes until it
     /// breaks nothing; books the external work and commits the step. `None` (the state left
-    /// half-way) when more than `abort_above` bond halves broke.
+    /// half-way) when more than `abort_above` bond halves broke; `Advanced::Paused` when a
+    /// relaxation paused (a paused step is continued by the next call).
     fn load_step<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
         t1: f64,
         abort_above: Option<u64>,
-    ) -> Result<Option<LoadStepReport>, StepError> {
+    ) -> Result<Option<Advanced>, StepError> {
         let started = Instant::now();
-        let (t0, u0, load0) = (
-            sim.state.time,
-            sim.state.u.clone(),
-            self.applied_forces(sim),
-        );
-        self.start_step(sim, t1);
-        let mut report = LoadStepReport::default();
-        self.ticker.begin(sim.state.step + 1, t1);
+        let step = sim.state.step + 1;
+        let (mut p, resume) = match self.paused.take() {
+            Some(mut p) => {
+                let relaxation = RelaxationPaused {
+                    iterations: p.iterations,
+                    start_residual: p.start_residual,
+                    fallback_start: p.fallback_start.take(),
+                };
+                // A run continued from a checkpoint prints this step's progress afresh.
+                if self.ticker.step != step {
+                    self.ticker.begin(step, t1);
+                }
+                sim.state.time = p.t1;
+                (p, Some(relaxation))
+            }
+            None => {
+                let (t0, u0, load0) = (
+                    sim.state.time,
+                    sim.state.u.clone(),
+                    self.applied_forces(sim),
+                );
+                self.start_step(sim, t1);
+                self.ticker.begin(step, t1);
+                let p = Box::new(StepInProgress {
+                    t0,
+                    t1,
+                    u0,
+                    load0,
+                    report: LoadStepReport::default(),
+                    record: WorkRecord::of(&sim.state),
+                    iterations: 0,
+                    start_residual: 0.0,
+                    velocity: Vec::new(),
+                    previous_acceleration: Vec::new(),
+                    fallback_start: None,
+                });
+                (p, None)
+            }
+        };
         // Forces at the new boundary values, nothing deciding.
         self.toggle_protection(sim);
-        let mut record = WorkRecord::of(&sim.state);
-        let result = (|| {
-            sim.refresh_forces()?;
-            loop {
-                report.equilibria += 1;
-                self.ticker.done = report;
-                report.iterations += self.relax(sim)?;
-                record.restore(&mut sim.state);
-                // The decision, with the user's no-fail sets.
-                self.toggle_protection(sim);
-                let broken = sim.refresh_forces();
-                self.toggle_protection(sim);
-                let broken = broken?;
-                record.keep(&sim.state);
-                report.broken += broken;
-                if abort_above.is_some_and(|n| report.broken > n) {
-                    return Ok(false);
-                }
-                report.residual = self.residual(sim).0;
-                if broken == 0 && report.residual <= self.settings.tolerance {
-                    return Ok(true);
-                }
-                if report.equilibria >= self.settings.max_equilibria {
-                    return Err(StepError::NotConverged {
-                        step: sim.state.step + 1,
-                        time: t1,
-                        what: format!("bonds still breaking after {} re-equilibrations (max_equilibria) in this load step", report.equilibria),
-                    });
-                }
-            }
-        })();
+        let result = self.equilibrate(sim, &mut p, resume, abort_above);
         self.toggle_protection(sim);
-        self.iterations += report.iterations;
-        if !result? {
-            self.ticker.end(&report, false);
-            return Ok(None);
+        let report = p.report;
+        match result {
+            Ok(Equilibrated::Paused(r)) => {
+                (p.iterations, p.start_residual) = (r.iterations, r.start_residual);
+                p.fallback_start = r.fallback_start;
+                // Until the step commits, the clock stays at its start: the stage loop and
+                // the checkpoint see the last committed time.
+                sim.state.time = p.t0;
+                self.paused = Some(p);
+                sim.counters.force += started.elapsed();
+                return Ok(Some(Advanced::Paused));
+            }
+            Ok(Equilibrated::GaveUp) => {
+                self.iterations += report.iterations;
+                self.ticker.end(&report, false);
+                return Ok(None);
+            }
+            Ok(Equilibrated::Done) => self.iterations += report.iterations,
+            Err(e) => {
+                self.iterations += report.iterations;
+                return Err(e);
+            }
         }
         self.ticker.end(&report, true);
         self.largest_load = self.largest_load.max(self.residual(sim).1);
-        sim.state.external_work += self.step_work(sim, &u0, &load0);
-        self.previous = Some((t0, u0));
-        sim.state.dt = t1 - t0;
+        sim.state.external_work += self.step_work(sim, &p.u0, &p.load0);
+        self.previous = Some((p.t0, p.u0));
+        sim.state.dt = t1 - p.t0;
         sim.state.iterations = report.iterations;
         sim.state.step += 1;
         sim.counters.force += started.elapsed();
-        Ok(Some(report))
+        Ok(Some(Advanced::Committed(report)))
     }
 
-    /// Relaxes the body to equilibrium with the damage state frozen; returns the iterations.
-    fn relax<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
+    /// The relaxations and decisions of the load step `p` (every node protected while it
+    /// relaxes): from its start, or from the relaxation `resume` paused in.
+    fn equilibrate<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        p: &mut StepInProgress<D>,
+        mut resume: Option<RelaxationPaused<D>>,
+        abort_above: Option<u64>,
+    ) -> Result<Equilibrated<D>, StepError> {
+        if resume.is_none() {
+            sim.refresh_forces()?;
+        }
+        loop {
+            if resume.is_none() {
+                p.report.equilibria += 1;
+            }
+            self.ticker.done = p.report;
+            p.report.iterations += match self.relax(sim, resume.take())? {
+                Relaxed::Converged(n) => n,
+                Relaxed::Paused(r) => return Ok(Equilibrated::Paused(r)),
+            };
+            p.record.restore(&mut sim.state);
+            // The decision, with the user's no-fail sets.
+            self.toggle_protection(sim);
+            let broken = sim.refresh_forces();
+            self.toggle_protection(sim);
+            let broken = broken?;
+            p.record.keep(&sim.state);
+            p.report.broken += broken;
+            if abort_above.is_some_and(|n| p.report.broken > n) {
+                return Ok(Equilibrated::GaveUp);
+            }
+            p.report.residual = self.residual(sim).0;
+            if broken == 0 && p.report.residual <= self.settings.tolerance {
+                return Ok(Equilibrated::Done);
+            }
+            if p.report.equilibria >= self.settings.max_equilibria {
+                return Err(StepError::NotConverged {
+                    step: sim.state.step + 1,
+                    time: p.t1,
+                    what: format!("bonds still breaking after {} re-equilibrations (max_equilibria) in this load step", p.report.equilibria),
+                });
+            }
+        }
+    }
+
+    /// Relaxes the body to equilibrium with the damage state frozen, from its state or from
+    /// where `resume` paused; returns the iterations, or the pause.
+    fn relax<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        resume: Option<RelaxationPaused<D>>,
+    ) -> Result<Relaxed<D>, StepError> {
         let tol = self.settings.tolerance;
         if let Some(ncg) = self.ncg.as_mut() {
             let (largest, max) = (self.largest_load, self.settings.max_iterations);
@@ -605,7 +739,7 @@ impl<const D: usize> QuasiStatic<D> {
                 residual <= tol
             })?;
             return match found {
-                Some(evaluations) => Ok(evaluations),
+                Some(evaluations) => Ok(Relaxed::Converged(evaluations)),
                 None => {
                     let residual = self.residual(sim).0;
                     Err(self.not_converged(sim, max, residual))
@@ -616,19 +750,26 @@ impl<const D: usize> QuasiStatic<D> {
             self.spectral_pending = false;
             self.measure_spectrum(sim)?;
         }
+        let (continued, fallback_start) = match resume {
+            Some(r) => (Some((r.iterations, r.start_residual)), r.fallback_start),
+            None => (None, None),
+        };
         if !self.spectral {
-            return self.adr(sim);
+            return self.adr(sim, continued);
         }
         // A relaxation that fails with the spectral masses (the measurement missed a mode, or
         // a contact stiffened the body) is taken again from its start with Gershgorin's.
-        let saved = sim.state.clone();
-        match self.adr(sim) {
-            Ok(n) => Ok(n),
+        let start = fallback_start.unwrap_or_else(|| RelaxationStart::of(&sim.state));
+        match self.adr(sim, continued) {
+            Ok(Relaxed::Paused(mut r)) => {
+                r.fallback_start = Some(start);
+                Ok(Relaxed::Paused(r))
+            }
+            Ok(converged) => Ok(converged),
             Err(_) => {
-                sim.state = saved;
-                self.mass.clone_from(&self.gershgorin);
-                self.spectral = false;
-                self.adr(sim)
+                start.restore(&mut sim.state);
+                self.use_gershgorin();
+                self.adr(sim, None)
             }
         }
     }
@@ -760,18 +901,39 @@ impl<const D: usize> QuasiStatic<D> {
     /// takes the residual and the next damping coefficient in one pass over the nodes (one
     /// exchange between ranks, not two: the damping of iteration n + 1 reads only what the
     /// forces of iteration n left).
-    fn adr<M: Material<D>>(&mut self, sim: &mut Simulation<D, M>) -> Result<u64, StepError> {
+    fn adr<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        continued: Option<(u64, f64)>,
+    ) -> Result<Relaxed<D>, StepError> {
         let tol = self.settings.tolerance;
         // The owned nodes: the ghosts take their owners' displacements at each evaluation.
         let owned = sim.owned();
         self.out_of_balance(sim);
-        let mut residual = self.residual(sim).0;
-        let start_residual = residual;
-        let mut c = 0.0;
-        let mut n = 0u64;
+        // A paused relaxation continues with what its last iteration computed from the
+        // same state and velocities: the residual and the damping.
+        let (mut n, start_residual, mut residual, mut c) = match continued {
+            None => {
+                let residual = self.residual(sim).0;
+                (0, residual, residual, 0.0)
+            }
+            Some((n, start_residual)) => {
+                let (residual, c) = self.residual_and_damping(sim);
+                (n, start_residual, residual, c)
+            }
+        };
+        let entered = n;
         while residual > tol {
             if n >= self.settings.max_iterations {
                 return Err(self.not_converged(sim, n, residual));
+            }
+            let pause = self.pause.filter(|_| self.may_pause && n > entered);
+            if pause.is_some_and(|p| p.due(n - entered)) {
+                return Ok(Relaxed::Paused(Box::new(RelaxationPaused {
+                    iterations: n,
+                    start_residual,
+                    fallback_start: None,
+                })));
             }
             // The first iteration starts from rest: v^{½} = F^0/(2λ).
             let first = n == 0;
@@ -812,7 +974,7 @@ impl<const D: usize> QuasiStatic<D> {
                 return Err(self.not_converged(sim, n, residual));
             }
         }
-        Ok(n)
+        Ok(Relaxed::Converged(n))
     }
 
     /// The out-of-balance acceleration F/λ on the free components of the owned nodes.

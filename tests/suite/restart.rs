@@ -375,6 +375,62 @@ fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A quasi-static run paused inside its relaxations for checkpoints (as the clock asks in a
+/// study's run; here after every ADR iteration), stopped at one of them inside the load step
+/// in which the crack runs and continued: the same files, byte for byte, as the run that
+/// never paused. The iteration continues where it stopped (its velocities, damping and
+/// count), and so does the step (its decisions so far, its work record, its start).
+#[test]
+fn a_run_stopped_inside_a_load_step_continues_byte_identical() {
+    let dir = scratch("inside-step");
+    let text = quasi_static_text(2e-5, "load_steps = 10\ntolerance = 1e-4", "")
+        .replace("history_interval = 7", "history_interval = 1");
+    let ld = load(&dir, "qs.toml", &text);
+    let (whole, parts) = (dir.join("whole"), dir.join("parts"));
+    let summary = run(&ld, &options(&whole, None)).unwrap();
+    assert!(summary.broken_bonds > 0, "the plate must fracture");
+    // The iterations of each committed step; the crack's step takes the most.
+    let history = std::fs::read_to_string(whole.join("history.csv")).unwrap();
+    let column = history
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "iterations")
+        .unwrap();
+    let iterations: Vec<u64> = history
+        .lines()
+        .skip(2)
+        .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
+        .collect();
+    let (crack, most) = (0..iterations.len())
+        .map(|k| (k, iterations[k]))
+        .max_by_key(|&(_, n)| n)
+        .unwrap();
+    assert!(crack > 0 && most > 100, "{iterations:?}");
+    // Every iteration but a relaxation's first pauses: the stop falls in the crack's step.
+    let before: u64 = iterations[..crack].iter().sum();
+    let control = RunControl {
+        checkpoint_every: Some(std::time::Duration::ZERO),
+        stop_at_pause: Some(before + most / 2),
+        ..RunControl::default()
+    };
+    let stopped = run_with(&ld, &options(&parts, Some(1)), &control);
+    assert!(
+        matches!(stopped, Err(RunError::Stopped(s)) if s == crack as u64),
+        "expected a stop inside load step {}: {stopped:?}",
+        crack + 1
+    );
+    let restart = RunControl {
+        restart: true,
+        ..RunControl::default()
+    };
+    let continued = run_with(&ld, &options(&parts, Some(2)), &restart).unwrap();
+    assert_eq!(continued.broken_bonds, summary.broken_bonds);
+    assert_same_files(&whole, &parts);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A relaxation that does not converge stops the run with its load step named, and the last
 /// good state (the latest checkpoint: every committed step here) is written beside the
 /// snapshots, not in their series.
@@ -504,7 +560,8 @@ fn killed_process_continues_with_restart_dir() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `--restart DIR` and `-o` naming another folder are refused before anything runs.
+/// `--restart DIR` and `-o` naming another folder, and `--checkpoint-minutes 0`, are refused
+/// before anything runs.
 #[test]
 fn restart_and_output_naming_two_folders_are_refused() {
     let dir = scratch("two-folders");
@@ -527,6 +584,20 @@ fn restart_and_output_naming_two_folders_are_refused() {
     assert!(!out.status.success());
     assert!(err.contains("name different folders"), "{err}");
     assert!(!a.exists() && !b.exists(), "nothing is written");
+    // So is a checkpoint interval that is not a positive number of minutes.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_peridyn"))
+        .arg("run")
+        .arg(&deck)
+        .args(["-q", "-o", a.to_str().unwrap(), "--checkpoint-minutes", "0"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--checkpoint-minutes 0: expected a positive number of minutes"),
+        "{err}"
+    );
+    assert!(!a.exists(), "nothing is written");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
