@@ -38,6 +38,9 @@ use std::time::{Duration, Instant};
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
 const FORMAT: u32 = 5;
+/// The format before load steps could pause, still read: it is format 5 without the header's
+/// word for the load step in progress and without the Gershgorin scalar.
+const EARLIER_FORMAT: u32 = 4;
 /// State and driver scalars in the payload.
 const SCALARS: usize = 21;
 /// Scalars of a load step in progress.
@@ -136,7 +139,7 @@ pub enum CheckpointError {
     Io(#[from] io::Error),
     #[error("{} is not a peridyn checkpoint (it does not start with {:?})", .0.display(), std::str::from_utf8(MAGIC).unwrap_or_default())]
     NotCheckpoint(PathBuf),
-    #[error("{} has checkpoint format {found}; this peridyn reads format {FORMAT}", path.display())]
+    #[error("{} has checkpoint format {found}; this peridyn reads formats {EARLIER_FORMAT} and {FORMAT}", path.display())]
     Format { path: PathBuf, found: u32 },
     #[error("checkpoint {} was written by peridyn {found}; this is peridyn {}: continue the run with the version that started it", path.display(), env!("CARGO_PKG_VERSION"))]
     Version { path: PathBuf, found: String },
@@ -633,7 +636,7 @@ fn read_head<const D: usize>(
         return Err(CheckpointError::NotCheckpoint(path.to_path_buf()));
     }
     let format = r.u32()?;
-    if format != FORMAT {
+    if format != FORMAT && format != EARLIER_FORMAT {
         return Err(CheckpointError::Format {
             path: path.to_path_buf(),
             found: format,
@@ -691,7 +694,9 @@ fn read_head<const D: usize>(
         });
     }
     let impactors = r.u64()? as usize;
-    let in_step = r.u64()?;
+    // Format 4 has no load step in progress, nor the Gershgorin scalar.
+    let earlier = format == EARLIER_FORMAT;
+    let in_step = if earlier { 0 } else { r.u64()? };
     if in_step > 2 {
         return Err(CheckpointError::Corrupt {
             path: path.to_path_buf(),
@@ -707,7 +712,7 @@ fn read_head<const D: usize>(
             expected: expected.history as u64,
         });
     }
-    let arrays = (r.pos + SCALARS * 8) as u64;
+    let arrays = (r.pos + (SCALARS - earlier as usize) * 8) as u64;
     let mut head = Head {
         scalars: State::empty(),
         driver: DriverState::default(),
@@ -747,7 +752,7 @@ fn read_head<const D: usize>(
     let qs = r.u64()? == 1;
     let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
     let (has_previous, previous_time) = (r.u64()? == 1, r.f64()?);
-    let gershgorin = r.u64()? == 1;
+    let gershgorin = !earlier && r.u64()? == 1;
     if qs {
         head.driver.quasi_static = Some(QuasiStaticMemory {
             increment,
@@ -1151,6 +1156,46 @@ mod tests {
             "{:?}",
             parts.err()
         );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A checkpoint of format 4 (before load steps could pause: no word for a load step in
+    /// progress in the header, no Gershgorin scalar) continues: a run in progress survives the
+    /// upgrade.
+    #[test]
+    fn a_checkpoint_of_format_4_continues() {
+        let dir = std::env::temp_dir().join(format!("peridyn-format-4-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(FILE_NAME);
+        let origin = Origin::new("deck", Path::new("deck.toml"));
+        let saved = state(1);
+        let driver = DriverState {
+            quasi_static: Some(QuasiStaticMemory {
+                increment: 0.1,
+                largest_load: 9.0,
+                previous: None,
+                iterations: 4000,
+                gershgorin: false,
+                in_step: None,
+            }),
+            ..DriverState::default()
+        };
+        write(&path, &origin, &saved, &driver).unwrap();
+        // The same checkpoint as format 4 wrote it.
+        let mut bytes = std::fs::read(&path).unwrap();
+        let sizes = 8 + 4 + (4 + origin.version.len()) + (4 + origin.deck_file.len()) + 8;
+        let gershgorin = sizes + 9 * 8 + 20 * 8;
+        bytes.drain(gershgorin..gershgorin + 8);
+        bytes.drain(sizes + 8 * 8..sizes + 9 * 8);
+        bytes[8..12].copy_from_slice(&EARLIER_FORMAT.to_le_bytes());
+        let body = bytes.len() - 8;
+        let hash = fnv1a(FNV_OFFSET, &bytes[..body]);
+        bytes[body..].copy_from_slice(&hash.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let mut now = state(1);
+        now.u.fill(Vector::zeros());
+        assert_eq!(restore(&path, &origin, &mut now).unwrap(), driver);
+        assert!(now.u == saved.u && now.history == saved.history && now.time == saved.time);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

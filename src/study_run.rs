@@ -321,10 +321,14 @@ pub fn run_study_over(
     }
     let total = runs.len();
     let pending: Vec<usize> = (0..total).filter(|&k| runs[k].status.is_empty()).collect();
+    // A run's progress lines (a long run, or a long quasi-static load step, that printed
+    // nothing would look hung); not when the ranks take several runs at once.
+    let progress = !opts.quiet && ranks.is_none();
     for round in rounds(&pending, size) {
-        let mine = round
-            .get(rank)
-            .map(|&k| run_point(ls, opts, &decks[k], &runs_dir.join(format!("run_{k:04}"))));
+        let mine = round.get(rank).map(|&k| {
+            let dir = runs_dir.join(format!("run_{k:04}"));
+            run_point(ls, opts, &decks[k], &dir, progress)
+        });
         let outcomes = match &ranks {
             None => Some(vec![mine.expect("one rank runs every run")?]),
             Some(r) => {
@@ -367,18 +371,20 @@ fn io(what: &str, path: &Path, e: std::io::Error) -> StudyRunError {
 }
 
 /// Runs one design point's `deck` in `dir`, or continues it from the checkpoint a stopped
-/// invocation left there (`run_folder`), and reads its outputs.
+/// invocation left there (`run_folder`), and reads its outputs; with `progress`, the run
+/// prints its progress lines.
 fn run_point(
     ls: &LoadedStudy,
     opts: &StudyOptions,
     deck: &LoadedDeck,
     dir: &Path,
+    progress: bool,
 ) -> Result<Outcome, StudyRunError> {
     let started = Instant::now();
     let run_opts = RunOptions {
         out_dir: dir.to_path_buf(),
         threads: opts.threads,
-        quiet: true,
+        quiet: !progress,
     };
     let control = RunControl {
         checkpoint_every: Some(run_folder::CHECKPOINT_EVERY),
