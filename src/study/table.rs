@@ -130,6 +130,11 @@ impl Table {
             .filter(|r| r.get(c).is_some_and(|v| !v.is_nan()))
             .collect();
         let values = || rows.iter().map(|r| r[c]);
+        // (the other column's value, this column's) in the rows where the other has one.
+        let paired = |other: usize| {
+            rows.iter()
+                .filter_map(move |r| r.get(other).filter(|v| !v.is_nan()).map(|&o| (o, r[c])))
+        };
         Ok(match how {
             Reduction::Final => values().next_back(),
             Reduction::Max => values().reduce(f64::max),
@@ -163,35 +168,19 @@ impl Table {
             }
             Reduction::Count => Some(rows.len() as f64),
             Reduction::Pearson(other) => {
-                let pairs: Vec<(f64, f64)> = rows
-                    .iter()
-                    .filter_map(|r| r.get(other).filter(|v| !v.is_nan()).map(|&o| (r[c], o)))
-                    .collect();
-                let (x, y): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
+                let (y, x): (Vec<f64>, Vec<f64>) = paired(other).unzip();
                 pearson(&x, &y)
             }
-            Reduction::MaxDistance(other) => rows
-                .iter()
-                .filter_map(|r| {
-                    r.get(other)
-                        .filter(|v| !v.is_nan())
-                        .map(|&o| (r[c] - o).abs())
-                })
-                .reduce(f64::max),
+            Reduction::MaxDistance(other) => {
+                paired(other).map(|(o, v)| (v - o).abs()).reduce(f64::max)
+            }
             Reduction::Slope { against, between } => {
                 let inside = |v: f64| between.is_none_or(|[low, high]| (low..=high).contains(&v));
-                let points: Vec<(f64, f64)> = rows
-                    .iter()
-                    .filter(|r| inside(r[c]))
-                    .filter_map(|r| r.get(against).filter(|v| !v.is_nan()).map(|&a| (a, r[c])))
-                    .collect();
+                let points: Vec<(f64, f64)> = paired(against).filter(|&(_, v)| inside(v)).collect();
                 least_squares_slope(&points)
             }
             Reduction::Angle { against, first } => {
-                let mut points: Vec<(f64, f64)> = rows
-                    .iter()
-                    .filter_map(|r| r.get(against).filter(|v| !v.is_nan()).map(|&a| (a, r[c])))
-                    .collect();
+                let mut points: Vec<(f64, f64)> = paired(against).collect();
                 // A tip sampled while it stands still repeats its point: the path is its
                 // distinct points, not the time spent at each.
                 points.dedup();
