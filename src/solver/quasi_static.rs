@@ -643,27 +643,21 @@ impl<const D: usize> QuasiStatic<D> {
         let result = self.equilibrate(sim, &mut p, resume, abort_above);
         self.toggle_protection(sim);
         let report = p.report;
-        match result {
-            Ok(Equilibrated::Paused(r)) => {
-                (p.iterations, p.start_residual) = (r.iterations, r.start_residual);
-                p.fallback_start = r.fallback_start;
-                // Until the step commits, the clock stays at its start: the stage loop and
-                // the checkpoint see the last committed time.
-                sim.state.time = p.t0;
-                self.paused = Some(p);
-                sim.counters.force += started.elapsed();
-                return Ok(Some(Advanced::Paused));
-            }
-            Ok(Equilibrated::GaveUp) => {
-                self.iterations += report.iterations;
-                self.ticker.end(&report, false);
-                return Ok(None);
-            }
-            Ok(Equilibrated::Done) => self.iterations += report.iterations,
-            Err(e) => {
-                self.iterations += report.iterations;
-                return Err(e);
-            }
+        if let Ok(Equilibrated::Paused(r)) = result {
+            (p.iterations, p.start_residual) = (r.iterations, r.start_residual);
+            p.fallback_start = r.fallback_start;
+            // Until the step commits, the clock stays at its start: the stage loop and the
+            // checkpoint see the last committed time.
+            sim.state.time = p.t0;
+            self.paused = Some(p);
+            sim.counters.force += started.elapsed();
+            return Ok(Some(Advanced::Paused));
+        }
+        // The step ended (committed, gave up or failed): its iterations count.
+        self.iterations += report.iterations;
+        if let Equilibrated::GaveUp = result? {
+            self.ticker.end(&report, false);
+            return Ok(None);
         }
         self.ticker.end(&report, true);
         self.largest_load = self.largest_load.max(self.residual(sim).1);
