@@ -17,7 +17,8 @@ use std::time::Instant;
 
 /// How the stages ended, and what the summary reads besides the simulation.
 pub(crate) struct Finished {
-    pub result: Result<(), RunError>,
+    /// The solvers' notes (`stages::drive_stages`), or why the run stopped.
+    pub result: Result<Vec<String>, RunError>,
     /// When stepping started (the wall time of the summary).
     pub started: Instant,
     /// The checkpoint a failed run's last good state is read from.
@@ -66,7 +67,7 @@ pub(crate) fn finish<const D: usize, M: Material<D>>(
             );
         }
     }
-    result?;
+    let solver_notes = result?;
     let wall = started.elapsed().as_secs_f64();
     let c = &sim.counters;
     let summary = RunSummary {
@@ -97,6 +98,7 @@ pub(crate) fn finish<const D: usize, M: Material<D>>(
         notes: crate::observe::snapshots::maps_skipped(&ld.deck.output, nodes)
             .then(|| crate::observe::snapshots::maps_skipped_note(nodes))
             .into_iter()
+            .chain(solver_notes)
             .collect(),
     };
     if !writes {

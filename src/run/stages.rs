@@ -21,17 +21,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Drives the whole run: the deck's stages, or its one stage.
+/// Drives the whole run: the deck's stages, or its one stage. Returns what the quasi-static
+/// stages' solvers report for the summary.
 pub(crate) fn drive_stages<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     first: SolverSettings,
     report: &ModelReport,
     plans: Vec<StagePlan<D>>,
     watch: &mut Watch<D>,
-) -> Result<(), RunError> {
+) -> Result<Vec<String>, RunError> {
     let mut course = Course::new(first, report, plans);
     while course.advance(sim, watch)? {}
-    Ok(())
+    Ok(course.notes)
 }
 
 /// A run's stages and where it is in them: the deck's stages one after the other, each
@@ -46,6 +47,11 @@ pub(crate) struct Course<const D: usize> {
     plans: std::vec::IntoIter<StagePlan<D>>,
     /// Each stage's steps, time step (or load increment) and duration.
     spans: Vec<Span>,
+    /// Each stage's name (empty for a run of one stage).
+    names: Vec<String>,
+    /// What each quasi-static stage that ended in this process used and spent (the summary's
+    /// notes).
+    pub(crate) notes: Vec<String>,
     /// The next stage to start.
     next: usize,
     /// The loop of the stage in progress.
@@ -87,6 +93,8 @@ impl<const D: usize> Course<D> {
             first,
             plans: plans.into_iter(),
             spans,
+            names: report.stages.iter().map(|s| s.name.clone()).collect(),
+            notes: Vec::new(),
             next: 0,
             current: None,
         }
@@ -116,6 +124,13 @@ impl<const D: usize> Course<D> {
             if let Some(stage) = self.current.as_mut() {
                 if stage.step(sim, watch)? {
                     return Ok(true);
+                }
+                if let Loop::QuasiStatic { solver, .. } = stage {
+                    let name = match self.names.get(self.next - 1) {
+                        Some(name) => format!("stage {name}"),
+                        None => "quasi-static".into(),
+                    };
+                    self.notes.push(format!("{name}: {}", solver.describe()));
                 }
                 // A continued run's driver state served the stage it was in only.
                 self.current = None;

@@ -394,6 +394,31 @@ impl<const D: usize> QuasiStatic<D> {
         (self.spectral, self.spectral_pending, self.fell_back) = (false, false, true);
     }
 
+    /// What the solver used and spent, for the run's summary: the method, and for ADR which
+    /// fictitious masses (a run is only comparable with one that relaxed with the same).
+    pub fn describe(&self) -> String {
+        if self.ncg.is_some() {
+            return format!("NCG, {} force evaluations", self.iterations);
+        }
+        let rho = self.spectral_radius;
+        let masses = if self.spectral {
+            format!(
+                "the spectral masses (Gershgorin's × {:.3}, from ρ = {rho:.3} measured in {} force evaluations)",
+                (SPECTRAL_MARGIN * rho / 4.0).clamp(1.0 / 16.0, 1.0),
+                self.setup_evaluations
+            )
+        } else if self.fell_back && rho > 0.0 {
+            format!("Gershgorin's masses (a relaxation failed with the spectral ones, ρ = {rho:.3}, and was taken again)")
+        } else if self.fell_back {
+            "Gershgorin's masses (a relaxation failed with the spectral ones before the checkpoint this run continued from)".into()
+        } else if rho > 0.0 {
+            format!("Gershgorin's masses (ρ = {rho:.3}: scaling them would gain nothing)")
+        } else {
+            "Gershgorin's masses".into()
+        };
+        format!("ADR with {masses}, {} iterations", self.iterations)
+    }
+
     /// Sets up the masses for `sim`; `increment` is the nominal load step (pseudo-time).
     pub fn new<M: Material<D>>(
         sim: &Simulation<D, M>,

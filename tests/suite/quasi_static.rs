@@ -525,7 +525,7 @@ fn a_run_records_openings_and_draws_its_history() {
     );
     ld.file = std::path::PathBuf::from("plate.toml");
     let out = std::env::temp_dir().join(format!("peridyn-openings-{}", std::process::id()));
-    peridyn::run::run(
+    let summary = peridyn::run::run(
         &ld,
         &peridyn::run::RunOptions {
             out_dir: out.clone(),
@@ -535,6 +535,16 @@ fn a_run_records_openings_and_draws_its_history() {
     )
     .unwrap();
     let table = peridyn::plot::history_plots::HistoryTable::read(&out.join("history.csv")).unwrap();
+    // The summary names the fictitious masses the relaxations used and their iterations,
+    // as many as the history's rows add up to.
+    let iterations: f64 = table.column("iterations").unwrap().iter().sum();
+    let note = "quasi-static: ADR with the spectral masses (Gershgorin's × ";
+    let solver = summary.notes.iter().find(|n| n.starts_with(note));
+    assert!(
+        solver.is_some_and(|n| n.ends_with(&format!(", {iterations} iterations"))),
+        "{:?}",
+        summary.notes
+    );
     let opening = table.column("opening_grips").expect("an opening column");
     let last = *opening.last().unwrap();
     println!("opening of the grips {last:.6e} m for a pull of {pull:e} m");
