@@ -29,7 +29,7 @@ use crate::math::Vector;
 use crate::observe::Every;
 use crate::solver::impactor::ImpactorState;
 use crate::solver::quasi_static::{LoadStepReport, QuasiStaticMemory, StepInProgress};
-use crate::solver::quasi_static_memory::{RelaxationStart, WorkRecord};
+use crate::solver::quasi_static_memory::{RelaxationPaused, RelaxationStart, WorkRecord};
 use crate::state::State;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -221,7 +221,7 @@ fn in_step<const D: usize>(driver: &DriverState<D>) -> Option<&StepInProgress<D>
 
 /// The header's word for the load step in progress (see the module docs).
 fn in_step_kind<const D: usize>(driver: &DriverState<D>) -> u64 {
-    in_step(driver).map_or(0, |p| 1 + p.fallback_start.is_some() as u64)
+    in_step(driver).map_or(0, |p| 1 + p.relaxation.fallback_start.is_some() as u64)
 }
 
 fn put_record<const D: usize>(w: &mut impl Write, r: &WorkRecord<D>) -> io::Result<()> {
@@ -240,8 +240,8 @@ fn put_in_step<const D: usize>(w: &mut impl Write, p: &StepInProgress<D>) -> io:
         r.equilibria as u64,
         r.broken,
         r.residual.to_bits(),
-        p.iterations,
-        p.start_residual.to_bits(),
+        p.relaxation.iterations,
+        p.relaxation.start_residual.to_bits(),
     ];
     for x in scalars {
         w.write_all(&x.to_le_bytes())?;
@@ -250,7 +250,7 @@ fn put_in_step<const D: usize>(w: &mut impl Write, p: &StepInProgress<D>) -> io:
         put_vectors(w, a)?;
     }
     put_record(w, &p.record)?;
-    if let Some(f) = &p.fallback_start {
+    if let Some(f) = &p.relaxation.fallback_start {
         for a in [&f.u, &f.current, &f.force, &f.body_force] {
             put_vectors(w, a)?;
         }
@@ -908,11 +908,13 @@ fn read_in_step<const D: usize>(
         load0,
         report,
         record,
-        iterations,
-        start_residual,
+        relaxation: RelaxationPaused {
+            iterations,
+            start_residual,
+            fallback_start,
+        },
         velocity,
         previous_acceleration,
-        fallback_start,
     })
 }
 
@@ -1110,17 +1112,19 @@ mod tests {
                 residual: 2.5e-3,
             },
             record: record(0.5),
-            iterations: 97,
-            start_residual: 0.125,
+            relaxation: RelaxationPaused {
+                iterations: 97,
+                start_residual: 0.125,
+                fallback_start: Some(RelaxationStart {
+                    u: vectors(5.0),
+                    current: vectors(6.0),
+                    force: vectors(7.0),
+                    body_force: vectors(8.0),
+                    record: record(0.25),
+                }),
+            },
             velocity: vectors(3.0),
             previous_acceleration: vectors(4.0),
-            fallback_start: Some(RelaxationStart {
-                u: vectors(5.0),
-                current: vectors(6.0),
-                force: vectors(7.0),
-                body_force: vectors(8.0),
-                record: record(0.25),
-            }),
         };
         let driver = DriverState {
             quasi_static: Some(QuasiStaticMemory {
@@ -1146,7 +1150,7 @@ mod tests {
             .as_mut()
             .and_then(|m| m.in_step.as_mut())
         {
-            p.fallback_start = None;
+            p.relaxation.fallback_start = None;
         }
         write(&path, &origin, &saved, &shorter).unwrap();
         assert_eq!(restore(&path, &origin, &mut now).unwrap(), shorter);

@@ -677,6 +677,10 @@ pub enum SolverDeck {
         end_time: f64,
         #[serde(default)]
         method: QuasiStaticMethod,
+        /// How ADR estimates its damping (absent: "local", and the resolved deck leaves it
+        /// out, so that the decks and checkpoints of runs before the key stay the same).
+        #[serde(default, skip_serializing_if = "AdrDampingDeck::is_local")]
+        adr_damping: AdrDampingDeck,
         /// Relative residual of an equilibrium: out-of-balance force over the loading forces.
         #[serde(default = "default_qs_tolerance")]
         tolerance: f64,
@@ -754,6 +758,23 @@ pub enum QuasiStaticMethod {
     /// Nonlinear conjugate gradients (Polak–Ribière, secant line search) on the potential
     /// energy: convex models only (no softening law).
     Ncg,
+}
+
+/// How adaptive dynamic relaxation estimates its damping coefficient.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AdrDampingDeck {
+    /// Kilic & Madenci's local Rayleigh quotient of the displacements.
+    #[default]
+    Local,
+    /// The Rayleigh quotient of the last increment.
+    Increment,
+}
+
+impl AdrDampingDeck {
+    fn is_local(&self) -> bool {
+        *self == AdrDampingDeck::Local
+    }
 }
 
 fn default_qs_tolerance() -> f64 {

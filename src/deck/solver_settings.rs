@@ -1,8 +1,8 @@
 //! What a `[solver]` table (the deck's or a stage's) asks of a run: `SolverSettings`, and the
 //! steps between history rows.
 
-use super::schema::{AdaptiveDtDeck, Deck, QuasiStaticMethod, SolverDeck};
-use crate::solver::{AdaptiveDtSettings, EquilibriumMethod, QuasiStaticSettings};
+use super::schema::{AdaptiveDtDeck, AdrDampingDeck, Deck, QuasiStaticMethod, SolverDeck};
+use crate::solver::{AdaptiveDtSettings, AdrDamping, EquilibriumMethod, QuasiStaticSettings};
 
 /// Solver settings of a run.
 #[derive(Debug, Clone)]
@@ -82,6 +82,7 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
             load_steps,
             end_time,
             method,
+            adr_damping,
             tolerance,
             max_iterations,
             mass_factor,
@@ -97,6 +98,10 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
                 method: match method {
                     QuasiStaticMethod::Adr => EquilibriumMethod::Adr,
                     QuasiStaticMethod::Ncg => EquilibriumMethod::Ncg,
+                },
+                damping: match adr_damping {
+                    AdrDampingDeck::Local => AdrDamping::Local,
+                    AdrDampingDeck::Increment => AdrDamping::Increment,
                 },
                 tolerance: *tolerance,
                 max_iterations: *max_iterations,

@@ -958,6 +958,7 @@ fn validate_solver(
             load_steps,
             end_time,
             method,
+            adr_damping,
             tolerance,
             max_iterations,
             mass_factor,
@@ -969,6 +970,12 @@ fn validate_solver(
                 issues.push(DeckIssue::new(
                     &format!("{prefix}solver.method"),
                     "conjugate gradients minimise a convex energy; a bilinear or trilinear softening law is not convex (seed 001 §2.10): use method = \"adr\"",
+                ));
+            }
+            if *method == QuasiStaticMethod::Ncg && *adr_damping != AdrDampingDeck::Local {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.adr_damping"),
+                    "adr_damping sets the damping of adaptive dynamic relaxation; conjugate gradients have none: use method = \"adr\" or leave adr_damping out",
                 ));
             }
             if *load_steps == 0 {

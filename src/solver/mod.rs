@@ -17,6 +17,7 @@ pub mod verlet;
 pub use adaptive_dt::{AdaptiveDt, AdaptiveDtSettings};
 pub use forces::{bond_force, ForceEngine};
 pub use quasi_static::{
-    AdrMass, Advanced, EquilibriumMethod, LoadStepReport, Pause, QuasiStatic, QuasiStaticSettings,
+    AdrDamping, AdrMass, Advanced, EquilibriumMethod, LoadStepReport, Pause, QuasiStatic,
+    QuasiStaticSettings,
 };
 pub use verlet::{Fields, Simulation, StepError};

@@ -67,15 +67,23 @@ pub struct StepInProgress<const D: usize> {
     pub report: LoadStepReport,
     /// The bonds' work record as the step's last decision left it.
     pub record: WorkRecord<D>,
-    /// Iterations of the relaxation in progress, and its residual at its start.
-    pub iterations: u64,
-    pub start_residual: f64,
+    /// The relaxation in progress.
+    pub relaxation: RelaxationPaused<D>,
     /// ADR's v^{n−½} and F^{n−1}/λ per node (empty in the solver's own copy, which keeps them
     /// in its working arrays; filled in a checkpoint's).
     pub velocity: Vec<Vector<D>>,
     pub previous_acceleration: Vec<Vector<D>>,
-    /// The relaxation's start, with the spectral masses: a relaxation that fails with them
-    /// is taken again from there with Gershgorin's.
+}
+
+/// A relaxation paused between two iterations (its ADR velocities and accelerations are kept
+/// beside it: in the solver's working arrays, or in `StepInProgress`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RelaxationPaused<const D: usize> {
+    /// Its iterations so far, and its residual at its start.
+    pub iterations: u64,
+    pub start_residual: f64,
+    /// Its start, with the spectral masses: a relaxation that fails with them is taken again
+    /// from there with Gershgorin's.
     pub fallback_start: Option<RelaxationStart<D>>,
 }
 
