@@ -177,6 +177,12 @@ const SPECTRAL_ITERATIONS: usize = 40;
 /// to a third below the true largest eigenvalue still leaves ω_max < 2.
 const SPECTRAL_MARGIN: f64 = 1.5;
 
+/// What the Gershgorin masses are scaled by for a measured largest eigenvalue ρ of λ⁻¹K:
+/// `SPECTRAL_MARGIN` ρ / 4, at most 1, at least 1/16.
+fn spectral_factor(rho: f64) -> f64 {
+    (SPECTRAL_MARGIN * rho / 4.0).clamp(1.0 / 16.0, 1.0)
+}
+
 /// One relaxation taken by `QuasiStatic::probe`.
 #[derive(Debug, Clone, Copy)]
 pub struct Probe {
@@ -415,7 +421,7 @@ impl<const D: usize> QuasiStatic<D> {
         let masses = if self.spectral {
             format!(
                 "the spectral masses (Gershgorin's × {:.3}, from ρ = {rho:.3} measured in {} force evaluations)",
-                (SPECTRAL_MARGIN * rho / 4.0).clamp(1.0 / 16.0, 1.0),
+                spectral_factor(rho),
                 self.setup_evaluations
             )
         } else if self.fell_back && rho > 0.0 {
@@ -427,7 +433,11 @@ impl<const D: usize> QuasiStatic<D> {
         } else {
             "Gershgorin's masses".into()
         };
-        format!("ADR with {masses}, {} iterations", self.iterations)
+        let damping = match self.settings.damping {
+            AdrDamping::Local => "",
+            AdrDamping::Increment => " and the damping of the last increment",
+        };
+        format!("ADR with {masses}{damping}, {} iterations", self.iterations)
     }
 
     /// Sets up the masses for `sim`; `increment` is the nominal load step (pseudo-time).
@@ -814,7 +824,7 @@ impl<const D: usize> QuasiStatic<D> {
         let (rho, evaluations) = result?;
         self.setup_evaluations += evaluations;
         self.spectral_radius = rho;
-        let factor = (SPECTRAL_MARGIN * rho / 4.0).clamp(1.0 / 16.0, 1.0);
+        let factor = spectral_factor(rho);
         if rho.is_finite() && factor < 0.95 {
             self.mass.iter_mut().for_each(|m| *m *= factor);
             self.spectral = true;
