@@ -302,7 +302,7 @@ adr_damping = "{damping}"
 /// so it follows the solution's shape, whose frequency lies above the slowest mode's, and the
 /// slow modes are overdamped. Measured first (iterations, local / increment): 80 × 40 nodes
 /// 362 / 345, 160 × 80 nodes 4373 / 674 (320 × 160: 22 696 / 1299). The bounds: the
-/// increment's count at most doubles and a half per halving of Δx (measured 1.95) while the
+/// increment's count grows at most 2.5× per halving of Δx (measured 1.95) while the
 /// local one grows more than fourfold (12), and on the finer grid it takes under a third
 /// (0.15).
 #[test]
