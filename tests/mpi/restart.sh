@@ -24,7 +24,7 @@ trap 'rm -rf "$out"' EXIT
 . tests/mpi/same_files.sh
 # A continued run's summary names only the quasi-static stages that ended in its own process
 # (the solver's note: masses and iterations), so those lines are left out too.
-timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' -e '^note  *stage [^:]*: \(ADR\|NCG\)' "$1"; }
+ALSO_UNCOMPARED='^note  *stage [^:]*: \(ADR\|NCG\)'
 # `on N ARGS...`: peridyn run ARGS on N ranks (one process without mpirun for N = 1).
 on() {
   local n=$1

@@ -3,8 +3,9 @@
 # "LABEL: N files identical, M differ" (or that the folders hold other files), and returns 1
 # unless all are identical.
 
-# The lines of summary.txt that depend on the wall clock (or the results folder).
-timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' "$1"; }
+# The lines of summary.txt that depend on the wall clock (or the results folder), and those
+# matching $ALSO_UNCOMPARED when the caller sets it.
+timeless() { grep -v -e '^finished ' -e '^timers ' -e '^results in ' ${ALSO_UNCOMPARED:+-e "$ALSO_UNCOMPARED"} "$1"; }
 
 same_files() {
   local reference=$1 other=$2 label=$3 files f ok same=0 differ=0
