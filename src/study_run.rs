@@ -41,6 +41,9 @@ pub struct StudyOptions {
     pub threads: Option<usize>,
     /// No progress lines.
     pub quiet: bool,
+    /// Runs of the design before this index are left out: not run now (those finished in an
+    /// earlier invocation's `runs.csv` are still read). 0: every run.
+    pub from_run: usize,
 }
 
 /// Why a study stopped.
@@ -320,7 +323,9 @@ pub fn run_study_over(
         }
     }
     let total = runs.len();
-    let pending: Vec<usize> = (0..total).filter(|&k| runs[k].status.is_empty()).collect();
+    let pending: Vec<usize> = (opts.from_run..total)
+        .filter(|&k| runs[k].status.is_empty())
+        .collect();
     // A run's progress lines (a long run, or a long quasi-static load step, that printed
     // nothing would look hung); not when the ranks take several runs at once.
     let progress = !opts.quiet && ranks.is_none();

@@ -282,6 +282,7 @@ fn study<'py>(
                 out_dir,
                 threads,
                 quiet,
+                from_run: 0,
             };
             let report = run_study(&ls, &opts).map_err(|e| match e {
                 peridyn::study_run::StudyRunError::Deck(d) => Failure::from(d),

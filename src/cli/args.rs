@@ -109,6 +109,10 @@ pub enum Command {
         /// case before the long runs of the finest grids; a later run continues with the rest.
         #[arg(long, value_name = "N")]
         first: Option<usize>,
+        /// Only the last N values of each case's series (the finest grids); the coarser runs
+        /// keep their committed measurement (their figures' curves need their folders here).
+        #[arg(long, value_name = "N", conflicts_with = "first")]
+        last: Option<usize>,
         #[arg(long)]
         threads: Option<usize>,
         #[arg(short, long)]

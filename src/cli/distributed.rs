@@ -37,6 +37,7 @@ pub(super) fn run_command(command: Command, ranks: Arc<dyn Ranks>) -> ExitCode {
                 out_dir,
                 threads,
                 quiet,
+                from_run: 0,
             };
             match LoadedStudy::from_file(&study) {
                 Ok(ls) => study_over(&ls, &opts, ranks),

@@ -179,6 +179,7 @@ grid written to {}",
                     out_dir,
                     threads,
                     quiet,
+                    from_run: 0,
                 },
             )
             .map_err(|e| e.to_string())?;
@@ -192,6 +193,7 @@ grid written to {}",
             root,
             output,
             first,
+            last,
             threads,
             quiet,
         } => (|| {
@@ -211,6 +213,7 @@ grid written to {}",
                 out_dir: output.unwrap_or_else(|| PathBuf::from("results").join(default_out)),
                 reduced,
                 first,
+                last,
                 threads,
                 quiet,
             };

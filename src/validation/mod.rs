@@ -27,6 +27,9 @@ pub struct ValidateOptions {
     pub reduced: bool,
     /// Only the first values of each series (the others stay not run).
     pub first: Option<usize>,
+    /// Only the last values of each series (the finest grids); the others keep their
+    /// committed measurement.
+    pub last: Option<usize>,
     pub threads: Option<usize>,
     pub quiet: bool,
 }
@@ -133,8 +136,9 @@ pub fn run_case(
         .first()
         .and_then(|f| f.values.clone())
         .unwrap_or_default();
-    let last = opts.first.map_or(series.len(), |n| n.min(series.len()));
-    for upto in 1..=last.max(1) {
+    let end = opts.first.map_or(series.len(), |n| n.min(series.len()));
+    let from_run = opts.last.map_or(0, |n| series.len().saturating_sub(n));
+    for upto in (from_run + 1).max(1)..=end.max(1) {
         // The study over the first `upto` values continues the one over `upto - 1`: its
         // earlier runs are found finished in `runs.csv` and not run again.
         let mut part = study.clone();
@@ -147,12 +151,16 @@ pub fn run_case(
                 out_dir: out.clone(),
                 threads: opts.threads,
                 quiet: opts.quiet,
+                from_run,
             },
         )
         .map_err(|e| e.to_string())?;
         measured.wall_minutes = 0.0;
         measured.runs.clear();
-        for (k, run) in report.runs.iter().enumerate() {
+        // Runs left out (`--last`, no status) are not measured here: `keep_full` keeps their
+        // earlier measurement.
+        let runs = report.runs.iter().enumerate();
+        for (k, run) in runs.filter(|(_, r)| !r.status.is_empty()) {
             let dir = out.join("runs").join(format!("run_{k:04}"));
             let minutes = run_folder::wall_minutes(&dir).unwrap_or(0.0);
             measured.wall_minutes += minutes;

@@ -630,6 +630,7 @@ fn a_study_run_left_midway_continues_from_its_checkpoint() {
             out_dir: dir.join(name),
             threads: Some(1),
             quiet: true,
+            from_run: 0,
         };
         run_study(&ls, &opts).unwrap()
     };

@@ -65,6 +65,7 @@ fn options(dir: &Path) -> StudyOptions {
         out_dir: dir.join("out"),
         threads: Some(2),
         quiet: true,
+        from_run: 0,
     }
 }
 

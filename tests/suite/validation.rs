@@ -7,7 +7,9 @@ use peridyn::deck::case::LoadedCase;
 use peridyn::validation::measured::{Measured, MeasuredRun};
 use peridyn::validation::others::Others;
 use peridyn::validation::verdict::{judge_case, Status};
-use peridyn::validation::{keep_full, load_all, report_texts, validate, Layout, ValidateOptions};
+use peridyn::validation::{
+    keep_full, load_all, report_texts, run_case, validate, Layout, ValidateOptions,
+};
 use std::path::{Path, PathBuf};
 
 fn repository() -> &'static Path {
@@ -57,6 +59,7 @@ fn reduced_cases_reproduce_the_papers_numbers() {
         out_dir: out.clone(),
         reduced: true,
         first: None,
+        last: None,
         threads: None,
         quiet: true,
     };
@@ -527,6 +530,7 @@ fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
         out_dir: root.join("results"),
         reduced: false,
         first: None,
+        last: None,
         threads: Some(1),
         quiet: true,
     };
@@ -552,5 +556,49 @@ fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
         .unwrap()
         .unwrap();
     assert_eq!(again.run_threads().collect::<Vec<_>>(), vec![2, 1]);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// `--last 1` runs only the finest value of a series: the coarser run is neither run nor
+/// measured again, and the measurement keeps what an earlier invocation measured for it.
+#[test]
+fn the_last_values_run_alone_and_the_others_keep_their_measurement() {
+    let root = scratch("last");
+    let (layout, case) = two_cases(&root, "[30.0, 40.0]");
+    let path = case.file.clone();
+    let small = "[[fixed]]\nkey = \"discretization.spacing\"\nvalue = 4e-4\n";
+    let text = std::fs::read_to_string(&path).unwrap() + small;
+    std::fs::write(&path, text).unwrap();
+    let case = LoadedCase::from_file(&path).unwrap();
+    let earlier = Measured {
+        case: "a".into(),
+        size: "full".into(),
+        wall_minutes: 1.0,
+        threads: 2,
+        runs: vec![speed_run(300.0, 480.0)],
+    };
+    earlier.write(&layout.measured_file(&case)).unwrap();
+    let opts = ValidateOptions {
+        out_dir: root.join("results"),
+        reduced: false,
+        first: None,
+        last: Some(1),
+        threads: Some(1),
+        quiet: true,
+    };
+    run_case(&case, &layout, &opts, &mut |m| {
+        keep_full(&case, m, &layout, &opts)
+    })
+    .unwrap();
+    let runs = root.join("results/seed002-a/runs");
+    assert!(!runs.join("run_0000").exists(), "the coarser run ran");
+    assert!(runs.join("run_0001/history.csv").exists());
+    let kept = Measured::read(&layout.measured_file(&case))
+        .unwrap()
+        .unwrap();
+    let series: Vec<_> = kept.runs.iter().map(|r| r.series).collect();
+    assert_eq!(series, vec![Some(300.0), Some(400.0)]);
+    assert_eq!(kept.runs[0].outputs["speed"], 480.0);
+    assert_eq!(kept.runs[1].status, "ok");
     let _ = std::fs::remove_dir_all(&root);
 }
