@@ -1,7 +1,9 @@
 //! Comparisons across cases: a derived output with `other_case` reads its second input from
-//! another case's full measurement (`validation/measured/`), at the run in the same position
-//! of that case's series. Only full measurements are compared: a reduced run has no
-//! committed counterpart, so such an output has no value at the reduced size.
+//! another case's full measurement (`validation/measured/`), at the run of that case's series
+//! with the same value when both series sweep the same key (2D against 3D at one grid
+//! spacing), otherwise at the run in the same position. Only full measurements are compared:
+//! a reduced run has no committed counterpart, so such an output has no value at the reduced
+//! size.
 
 use super::measured::{Measured, MeasuredRun};
 use super::Layout;
@@ -32,8 +34,8 @@ impl Others {
     }
 
     /// The cases `case`'s derived outputs name, read with their committed full measurement.
-    /// Refuses an unreadable case, a missing output and series of different lengths (the
-    /// runs are paired by position).
+    /// Refuses an unreadable case, a missing output, and series it cannot pair: a value the
+    /// other series of the same key lacks, or series of other keys and different lengths.
     pub fn load(case: &LoadedCase, layout: &Layout) -> Result<Others, String> {
         let mut cases: Vec<Other> = Vec::new();
         let here = case.file.parent().unwrap_or(Path::new(""));
@@ -62,7 +64,15 @@ impl Others {
             }
             for reduced in [false, true] {
                 let (mine, theirs) = (case.series_values(reduced), other.series_values(reduced));
-                if mine.len() != theirs.len() {
+                if same_key(case, &other) {
+                    if let Some(v) = mine.iter().find(|v| !theirs.contains(v)) {
+                        return Err(format!(
+                            "{at}: the runs are paired by their value of the series' key, but {} has no {} run at {v}",
+                            layout.relative(&other.file),
+                            if reduced { "reduced" } else { "full" },
+                        ));
+                    }
+                } else if mine.len() != theirs.len() {
                     return Err(format!(
                         "{at}: the runs are paired by position in the series, but this case has {} {} values and {} has {}",
                         mine.len(),
@@ -84,7 +94,7 @@ impl Others {
     }
 
     /// The value of `output` in the run of `other_case` paired with the full run of `case`
-    /// at `series` (the same position in the two series).
+    /// at `series` (the same value of the same key, or the same position in the two series).
     pub fn value(
         &self,
         case: &LoadedCase,
@@ -94,11 +104,15 @@ impl Others {
     ) -> Option<f64> {
         let other = self.cases.iter().find(|o| o.named == other_case)?;
         let measured = other.measured.as_ref()?;
-        let position = match series {
-            Some(v) => case.series_values(false).iter().position(|s| *s == v)?,
-            None => 0,
+        let paired = if same_key(case, &other.case) {
+            series
+        } else {
+            let position = match series {
+                Some(v) => case.series_values(false).iter().position(|s| *s == v)?,
+                None => 0,
+            };
+            other.case.series_values(false).get(position).copied()
         };
-        let paired = other.case.series_values(false).get(position).copied();
         let run = measured.runs.iter().find(|r| r.series == paired)?;
         run.values(&other.case, &Others::none())
             .get(output)
@@ -111,6 +125,14 @@ impl Others {
             .iter()
             .find(|o| o.named == other_case)
             .map(|o| o.source.as_str())
+    }
+}
+
+/// Both cases sweep the same key: their runs pair by the key's value.
+fn same_key(case: &LoadedCase, other: &LoadedCase) -> bool {
+    match (&case.case.series, &other.case.series) {
+        (Some(a), Some(b)) => a.key == b.key,
+        _ => false,
     }
 }
 

@@ -367,8 +367,13 @@ fn bad_case_files_are_refused_at_their_key() {
 
 /// Two cases on the quickstart deck in a validation layout of their own: `a.toml` compares
 /// its speed with `b.toml`'s, whose full measurement is committed, run by run in the order of
-/// the two series (whose values differ).
+/// the two series (of other keys, whose values differ).
 fn two_cases(root: &Path, b_values: &str) -> (Layout, LoadedCase) {
+    two_cases_over(root, ("material.density", b_values))
+}
+
+/// As `two_cases`, `b.toml` sweeping the given key over the given values.
+fn two_cases_over(root: &Path, (b_key, b_values): (&str, &str)) -> (Layout, LoadedCase) {
     let deck = repository()
         .join("examples/quickstart.toml")
         .display()
@@ -376,15 +381,16 @@ fn two_cases(root: &Path, b_values: &str) -> (Layout, LoadedCase) {
         .replace('\\', "/");
     let seed = root.join("validation/seed002");
     std::fs::create_dir_all(&seed).unwrap();
-    let case = |series: &str, extra: &str| {
+    let case = |key: &str, series: &str, extra: &str| {
         format!(
             "version = 1\npaper = \"002\"\ntitle = \"t\"\nsection = \"§1\"\ndeck = \"{deck}\"\n\
-             [series]\nkey = \"material.fracture_energy\"\nvalues = {series}\n\
+             [series]\nkey = \"{key}\"\nvalues = {series}\n\
              [[outputs]]\nname = \"speed\"\nfile = \"crack_speed.csv\"\ncolumn = \"speed\"\n\
              reduce = \"mean\"\n{extra}"
         )
     };
     let a = case(
+        "material.fracture_energy",
         "[300.0, 400.0]",
         "[[derived]]\nname = \"minus_b\"\ndifference = [\"speed\", \"speed\"]\n\
          other_case = \"b.toml\"\n\
@@ -394,10 +400,15 @@ fn two_cases(root: &Path, b_values: &str) -> (Layout, LoadedCase) {
          output = \"speed\"\ntrend = \"above\"\n",
     );
     std::fs::write(seed.join("a.toml"), a).unwrap();
-    std::fs::write(seed.join("b.toml"), case(b_values, "")).unwrap();
+    std::fs::write(seed.join("b.toml"), case(b_key, b_values, "")).unwrap();
     let layout = Layout::new(root.join("validation"));
     let b = Measured {
-        runs: vec![speed_run(30.0, 500.0), speed_run(40.0, 600.0)],
+        runs: vec![
+            speed_run(30.0, 500.0),
+            speed_run(40.0, 600.0),
+            speed_run(300.0, 470.0),
+            speed_run(400.0, 580.0),
+        ],
         ..Measured::default()
     };
     let case_b = LoadedCase::from_file(&seed.join("b.toml")).unwrap();
@@ -466,6 +477,34 @@ fn a_comparison_across_cases_refuses_series_it_cannot_pair() {
     assert!(e.contains("a.toml: derived[0].other_case"), "{e}");
     assert!(
         e.contains("this case has 2 full values and validation/seed002/b.toml has 1"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Two cases sweeping the same key (2D and 3D at one grid spacing) pair their runs by its
+/// value, whatever the series' lengths and order; a value the other case lacks is refused.
+#[test]
+fn a_comparison_across_cases_of_the_same_key_pairs_the_runs_by_value() {
+    let root = scratch("across-key");
+    let b = ("material.fracture_energy", "[400.0, 200.0, 300.0]");
+    let (layout, a) = two_cases_over(&root, b);
+    let others = Others::load(&a, &layout).unwrap_or_else(|e| panic!("{e}"));
+    let measured = Measured {
+        runs: vec![speed_run(300.0, 480.0), speed_run(400.0, 590.0)],
+        ..Measured::default()
+    };
+    let values: Vec<f64> = measured
+        .runs
+        .iter()
+        .map(|r| r.values(&a, &others)["minus_b"])
+        .collect();
+    // 300 with b's 300 (470), 400 with b's 400 (580).
+    assert_eq!(values, [10.0, 10.0]);
+    let (layout, a) = two_cases_over(&root, ("material.fracture_energy", "[300.0, 500.0]"));
+    let e = Others::load(&a, &layout).unwrap_err();
+    assert!(
+        e.contains("validation/seed002/b.toml has no full run at 400"),
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&root);
