@@ -417,6 +417,12 @@ fn two_cases_over(root: &Path, (b_key, b_values): (&str, &str)) -> (Layout, Load
     (layout, case_a)
 }
 
+/// `a.toml`'s comparison with `b.toml`, run by run.
+fn minus_b(a: &LoadedCase, others: &Others, measured: &Measured) -> Vec<f64> {
+    let values = measured.runs.iter().map(|r| r.values(a, others)["minus_b"]);
+    values.collect()
+}
+
 #[test]
 fn a_comparison_across_cases_pairs_the_runs_of_the_two_series() {
     let root = scratch("across");
@@ -427,11 +433,7 @@ fn a_comparison_across_cases_pairs_the_runs_of_the_two_series() {
         runs: vec![speed_run(300.0, 480.0), speed_run(400.0, 590.0)],
         ..Measured::default()
     };
-    let values: Vec<f64> = measured
-        .runs
-        .iter()
-        .map(|r| r.values(&a, &others)["minus_b"])
-        .collect();
+    let values = minus_b(&a, &others, &measured);
     assert_eq!(values, [-20.0, -10.0]);
     let rows = judge_case(&a, Some(&measured), false, &others);
     assert_eq!(rows[0].status, Status::Pass, "{:?}", rows[0]);
@@ -494,11 +496,7 @@ fn a_comparison_across_cases_of_the_same_key_pairs_the_runs_by_value() {
         runs: vec![speed_run(300.0, 480.0), speed_run(400.0, 590.0)],
         ..Measured::default()
     };
-    let values: Vec<f64> = measured
-        .runs
-        .iter()
-        .map(|r| r.values(&a, &others)["minus_b"])
-        .collect();
+    let values = minus_b(&a, &others, &measured);
     // 300 with b's 300 (470), 400 with b's 400 (580).
     assert_eq!(values, [10.0, 10.0]);
     let (layout, a) = two_cases_over(&root, ("material.fracture_energy", "[300.0, 500.0]"));
@@ -545,12 +543,9 @@ fn a_plot_leaves_out_runs_whose_folders_are_not_here() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A case continued by an invocation with another thread count keeps, for each run it found
-/// finished, the threads that run was measured on, and the report names both counts.
-#[test]
-fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
-    let root = scratch("threads");
-    let (layout, case) = two_cases(&root, "[30.0, 40.0]");
+/// Writes the full measurement of case `a` as an earlier invocation on 2 threads left it:
+/// one run, at 300.
+fn measured_on_two_threads(layout: &Layout, case: &LoadedCase) -> Measured {
     let earlier = Measured {
         case: "a".into(),
         size: "full".into(),
@@ -558,7 +553,17 @@ fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
         threads: 2,
         runs: vec![speed_run(300.0, 480.0)],
     };
-    earlier.write(&layout.measured_file(&case)).unwrap();
+    earlier.write(&layout.measured_file(case)).unwrap();
+    earlier
+}
+
+/// A case continued by an invocation with another thread count keeps, for each run it found
+/// finished, the threads that run was measured on, and the report names both counts.
+#[test]
+fn a_continued_case_keeps_the_threads_each_run_was_measured_on() {
+    let root = scratch("threads");
+    let (layout, case) = two_cases(&root, "[30.0, 40.0]");
+    let earlier = measured_on_two_threads(&layout, &case);
     let now = Measured {
         threads: 1,
         wall_minutes: 2.0,
@@ -609,14 +614,7 @@ fn the_last_values_run_alone_and_the_others_keep_their_measurement() {
     let text = std::fs::read_to_string(&path).unwrap() + small;
     std::fs::write(&path, text).unwrap();
     let case = LoadedCase::from_file(&path).unwrap();
-    let earlier = Measured {
-        case: "a".into(),
-        size: "full".into(),
-        wall_minutes: 1.0,
-        threads: 2,
-        runs: vec![speed_run(300.0, 480.0)],
-    };
-    earlier.write(&layout.measured_file(&case)).unwrap();
+    measured_on_two_threads(&layout, &case);
     let opts = ValidateOptions {
         out_dir: root.join("results"),
         reduced: false,
