@@ -138,7 +138,7 @@ pub fn run_case(
         .unwrap_or_default();
     let end = opts.first.map_or(series.len(), |n| n.min(series.len()));
     let from_run = opts.last.map_or(0, |n| series.len().saturating_sub(n));
-    for upto in (from_run + 1).max(1)..=end.max(1) {
+    for upto in from_run + 1..=end.max(1) {
         // The study over the first `upto` values continues the one over `upto - 1`: its
         // earlier runs are found finished in `runs.csv` and not run again.
         let mut part = study.clone();
