@@ -36,12 +36,13 @@ impl Progress {
             );
             b
         });
+        let started = Instant::now();
         Progress {
             bar,
             end_time,
             next_tenth: if quiet { u32::MAX } else { 1 },
-            started: Instant::now(),
-            stage_mark: Some((Instant::now(), 0.0)),
+            started,
+            stage_mark: Some((started, 0.0)),
         }
     }
 
