@@ -30,8 +30,21 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+mod over_ranks;
 pub mod run_folder;
 use run_folder::Start;
+
+/// How a study's runs use the ranks `mpirun` started.
+#[derive(Clone)]
+pub enum Spread {
+    /// One process runs every run.
+    Alone,
+    /// Each run in one process on one rank, in rounds of one run per rank (`peridyn study`).
+    RunPerRank(Arc<dyn Ranks>),
+    /// Each run one model over every rank, the runs one after another (`peridyn validate`: a
+    /// case's finest grid needs them all; `over_ranks`).
+    RunOverRanks(Arc<dyn Ranks>),
+}
 
 /// Where and how a study runs.
 #[derive(Debug, Clone)]
@@ -275,21 +288,28 @@ pub fn plan_study(
 
 /// Runs the study (or continues it) in `opts.out_dir`.
 pub fn run_study(ls: &LoadedStudy, opts: &StudyOptions) -> Result<StudyReport, StudyRunError> {
-    run_study_over(ls, opts, None)
+    run_study_over(ls, opts, &Spread::Alone)
 }
 
-/// `run_study` with its runs spread over `ranks` (`mpirun -np N peridyn study`), each run on
-/// one rank in one process, in rounds of one run per rank (`distributed::study`); rank 0
+/// `run_study` over the ranks of `spread`: each run on one rank in one process, in rounds of
+/// one run per rank (`distributed::study`), or each run over every rank (`over_ranks`). Rank 0
 /// rewrites `runs.csv` after each round and writes every file of the study itself, so they
 /// are the serial study's byte for byte. The other ranks' reports hold no runs' outcomes.
 pub fn run_study_over(
     ls: &LoadedStudy,
     opts: &StudyOptions,
-    ranks: Option<Arc<dyn Ranks>>,
+    spread: &Spread,
 ) -> Result<StudyReport, StudyRunError> {
     let (design, mut runs, decks) = plan(ls, opts.threads)?;
-    let (rank, size) = ranks.as_ref().map_or((0, 1), |r| (r.rank(), r.size()));
-    let root = rank == 0;
+    // This rank's place in each round of runs, and the runs in a round.
+    let (slot, size) = match spread {
+        Spread::Alone | Spread::RunOverRanks(_) => (0, 1),
+        Spread::RunPerRank(r) => (r.rank(), r.size()),
+    };
+    let root = match spread {
+        Spread::Alone => true,
+        Spread::RunPerRank(r) | Spread::RunOverRanks(r) => r.rank() == 0,
+    };
     let runs_dir = opts.out_dir.join("runs");
     std::fs::create_dir_all(&runs_dir).map_err(|e| io("create", &runs_dir, e))?;
     if root {
@@ -323,20 +343,32 @@ pub fn run_study_over(
         }
     }
     let total = runs.len();
-    let pending: Vec<usize> = (opts.from_run..total)
+    let mut pending: Vec<usize> = (opts.from_run..total)
         .filter(|&k| runs[k].status.is_empty())
         .collect();
+    if let Spread::RunOverRanks(r) = spread {
+        pending = over_ranks::agreed_pending(&**r, opts.from_run..total, &pending);
+    }
     // A run's progress lines (a long run, or a long quasi-static load step, that printed
     // nothing would look hung); not when the ranks take several runs at once.
-    let progress = !opts.quiet && ranks.is_none();
+    let progress = !opts.quiet && !matches!(spread, Spread::RunPerRank(_));
     for round in rounds(&pending, size) {
-        let mine = round.get(rank).map(|&k| {
+        let mine = round.get(slot).map(|&k| {
             let dir = runs_dir.join(format!("run_{k:04}"));
-            run_point(ls, opts, &decks[k], &dir, progress)
+            match spread {
+                Spread::RunOverRanks(r) => {
+                    over_ranks::run_point_over_ranks(ls, opts, &decks[k], &dir, r)
+                }
+                _ => run_point(ls, opts, &decks[k], &dir, progress),
+            }
         });
-        let outcomes = match &ranks {
-            None => Some(vec![mine.expect("one rank runs every run")?]),
-            Some(r) => {
+        let outcomes = match spread {
+            Spread::Alone => Some(vec![mine.expect("one rank runs every run")?]),
+            Spread::RunOverRanks(_) => {
+                let mine = mine.expect("every rank runs every run")?;
+                root.then(|| vec![mine])
+            }
+            Spread::RunPerRank(r) => {
                 let mine = mine.map(|m| m.map_err(|e| e.to_string()));
                 collect(&**r, round.len(), mine).map_err(StudyRunError::Io)?
             }
@@ -422,20 +454,23 @@ fn run_point(
     }
     let (status, outputs) = match result {
         Ok(_) => ("ok".into(), read_outputs(ls, dir)?),
-        Err(e) => {
-            // One line, no commas: the status is a CSV cell.
-            let message = e.to_string().replace(['\n', ','], " ");
-            (
-                format!("failed: {message}"),
-                vec![None; ls.study.outputs.len()],
-            )
-        }
+        Err(e) => failed(ls, &e),
     };
     Ok(Outcome {
         status,
         outputs,
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// The status and outputs of a run that failed: one line, no commas (the status is a CSV
+/// cell).
+fn failed(ls: &LoadedStudy, e: &RunError) -> (String, Vec<Option<f64>>) {
+    let message = e.to_string().replace(['\n', ','], " ");
+    (
+        format!("failed: {message}"),
+        vec![None; ls.study.outputs.len()],
+    )
 }
 
 /// The progress line of run `k` of `total`.

@@ -1,6 +1,6 @@
 //! The command line's words: the commands and their options (clap).
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -90,34 +90,7 @@ pub enum Command {
     /// them when none is named), compare with the papers' numbers, and write
     /// docs/validation.md with its figures (full size). Started again, a case continues where
     /// it stopped (a run left midway, from its checkpoint: every 10 minutes).
-    Validate {
-        cases: Vec<PathBuf>,
-        /// The reduced (CI) version of each case: minutes, not hours; the report is left as
-        /// it is, and rows outside their reduced tolerance fail the command.
-        #[arg(long)]
-        reduced: bool,
-        /// Only write docs/validation.md again from the committed measurements.
-        #[arg(long, conflicts_with_all = ["cases", "reduced"])]
-        report: bool,
-        /// The validation folder (default: validation, or the one holding the named cases).
-        #[arg(long)]
-        root: Option<PathBuf>,
-        /// Results folder of the runs (default: results/validation or results/validation-reduced).
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-        /// Only the first N values of each case's series (coarsest first): a pass over every
-        /// case before the long runs of the finest grids; a later run continues with the rest.
-        #[arg(long, value_name = "N")]
-        first: Option<usize>,
-        /// Only the last N values of each case's series (the finest grids); the coarser runs
-        /// keep their committed measurement (their figures' curves need their folders here).
-        #[arg(long, value_name = "N", conflicts_with = "first")]
-        last: Option<usize>,
-        #[arg(long)]
-        threads: Option<usize>,
-        #[arg(short, long)]
-        quiet: bool,
-    },
+    Validate(ValidateArgs),
     /// Measure force-loop throughput (node-steps/s, bond evaluations/s, bytes per bond).
     Bench {
         /// Target number of directed bonds per case.
@@ -133,4 +106,35 @@ pub enum Command {
         #[arg(long, value_delimiter = ',')]
         cases: Vec<String>,
     },
+}
+
+/// The options of `peridyn validate`.
+#[derive(Args)]
+pub struct ValidateArgs {
+    pub cases: Vec<PathBuf>,
+    /// The reduced (CI) version of each case: minutes, not hours; the report is left as
+    /// it is, and rows outside their reduced tolerance fail the command.
+    #[arg(long)]
+    pub reduced: bool,
+    /// Only write docs/validation.md again from the committed measurements.
+    #[arg(long, conflicts_with_all = ["cases", "reduced"])]
+    pub report: bool,
+    /// The validation folder (default: validation, or the one holding the named cases).
+    #[arg(long)]
+    pub root: Option<PathBuf>,
+    /// Results folder of the runs (default: results/validation or results/validation-reduced).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Only the first N values of each case's series (coarsest first): a pass over every
+    /// case before the long runs of the finest grids; a later run continues with the rest.
+    #[arg(long, value_name = "N")]
+    pub first: Option<usize>,
+    /// Only the last N values of each case's series (the finest grids); the coarser runs
+    /// keep their committed measurement (their figures' curves need their folders here).
+    #[arg(long, value_name = "N", conflicts_with = "first")]
+    pub last: Option<usize>,
+    #[arg(long)]
+    pub threads: Option<usize>,
+    #[arg(short, long)]
+    pub quiet: bool,
 }

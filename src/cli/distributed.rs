@@ -1,7 +1,8 @@
-//! The commands a process started by `mpirun` on several ranks runs: `run` and `study`
-//! (`docs/distributed.md`). Rank 0 prints. An error every rank meets (the deck or study, too
-//! few nodes for the ranks, a refused checkpoint, an unstable step) ends every rank; any other
-//! (a file rank 0 cannot write) aborts the others, which may be waiting for it.
+//! The commands a process started by `mpirun` on several ranks runs (`docs/distributed.md`):
+//! `run`, `study` (each run on one rank) and `validate` (each run over every rank). Rank 0
+//! prints. An error every rank meets (the deck or study, too few nodes for the ranks, a
+//! refused checkpoint, an unstable step) ends every rank; any other (a file rank 0 cannot
+//! write) aborts the others, which may be waiting for it.
 
 use super::args::Command;
 use super::{deck_name, run_folder};
@@ -9,7 +10,7 @@ use crate::deck::study::LoadedStudy;
 use crate::deck::LoadedDeck;
 use crate::run::{RunControl, RunError, RunOptions};
 use crate::solver::ranks::Ranks;
-use crate::study_run::{run_study_over, StudyOptions, StudyRunError};
+use crate::study_run::{run_study_over, Spread, StudyOptions, StudyRunError};
 use std::fmt::Display;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -76,7 +77,15 @@ pub(super) fn run_command(command: Command, ranks: Arc<dyn Ranks>) -> ExitCode {
             };
             run_over(&ld, &opts, &control, ranks)
         }
-        _ => refuse("only `peridyn run` and `peridyn study` (not --dry-run) are distributed: start other commands without mpirun (or with -np 1)".into()),
+        Command::Validate(args) if !args.report => {
+            // Every rank meets an error alike (the ranks agree after each step that could
+            // fail on one alone, or abort).
+            match super::validate_cases(args, Some(ranks.clone())) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => refuse(e),
+            }
+        }
+        _ => refuse("only `peridyn run`, `peridyn study` (not --dry-run) and `peridyn validate` (not --report) are distributed: start other commands without mpirun (or with -np 1)".into()),
     }
 }
 
@@ -88,21 +97,12 @@ fn run_over(
     ranks: Arc<dyn Ranks>,
 ) -> ExitCode {
     let outcome = crate::distributed::run_with(ld, opts, control, ranks.clone());
-    finish(&*ranks, outcome, |e| {
-        matches!(
-            e,
-            RunError::Deck(_)
-                | RunError::Distributed(_)
-                | RunError::Checkpoint(_)
-                | RunError::Step(_)
-                | RunError::Stopped(_)
-        )
-    })
+    finish(&*ranks, outcome, RunError::on_every_rank)
 }
 
 /// `study` over the ranks, each run on one rank; rank 0 writes the study's files.
 fn study_over(ls: &LoadedStudy, opts: &StudyOptions, ranks: Arc<dyn Ranks>) -> ExitCode {
-    let outcome = run_study_over(ls, opts, Some(ranks.clone()));
+    let outcome = run_study_over(ls, opts, &Spread::RunPerRank(ranks.clone()));
     finish(&*ranks, outcome, |e| {
         matches!(
             e,

@@ -11,7 +11,7 @@ use crate::run::{check_timed, run_with, RunControl, RunOptions};
 use crate::solver::ranks::Ranks;
 use crate::study_run::{plan_study, run_study, StudyOptions};
 use crate::validation::{validate, Layout, ValidateOptions};
-use args::{Cli, Command};
+use args::{Cli, Command, ValidateArgs};
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -186,46 +186,7 @@ grid written to {}",
             println!("{report}");
             Ok(())
         })(),
-        Command::Validate {
-            cases,
-            reduced,
-            report,
-            root,
-            output,
-            first,
-            last,
-            threads,
-            quiet,
-        } => (|| {
-            let root = root
-                .or_else(|| {
-                    let paper_dir = cases.first()?.parent()?;
-                    Some(paper_dir.parent()?.to_path_buf())
-                })
-                .unwrap_or_else(|| PathBuf::from("validation"));
-            let layout = Layout::new(root);
-            let default_out = if reduced {
-                "validation-reduced"
-            } else {
-                "validation"
-            };
-            let opts = ValidateOptions {
-                out_dir: output.unwrap_or_else(|| PathBuf::from("results").join(default_out)),
-                reduced,
-                first,
-                last,
-                threads,
-                quiet,
-            };
-            let done = validate(&cases, &layout, &opts, !report)?;
-            println!("{done}");
-            match done.differing() {
-                n if reduced && n > 0 => {
-                    Err(format!("{n} result(s) outside their reduced tolerance"))
-                }
-                _ => Ok(()),
-            }
-        })(),
+        Command::Validate(args) => validate_cases(args, None),
         Command::Bench {
             bonds,
             steps,
@@ -239,5 +200,42 @@ grid written to {}",
             eprintln!("error: {msg}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// `peridyn validate`: in one process, or with `over`, each run one model over the ranks
+/// (rank 0 prints and writes the measurements and the report).
+fn validate_cases(args: ValidateArgs, over: Option<Arc<dyn Ranks>>) -> Result<(), String> {
+    let root = args
+        .root
+        .or_else(|| {
+            let paper_dir = args.cases.first()?.parent()?;
+            Some(paper_dir.parent()?.to_path_buf())
+        })
+        .unwrap_or_else(|| PathBuf::from("validation"));
+    let layout = Layout::new(root);
+    let default_out = if args.reduced {
+        "validation-reduced"
+    } else {
+        "validation"
+    };
+    let opts = ValidateOptions {
+        out_dir: args
+            .output
+            .unwrap_or_else(|| PathBuf::from("results").join(default_out)),
+        reduced: args.reduced,
+        first: args.first,
+        last: args.last,
+        threads: args.threads,
+        quiet: args.quiet,
+    };
+    let root_rank = over.as_ref().is_none_or(|r| r.rank() == 0);
+    let done = validate(&args.cases, &layout, &opts, !args.report, over)?;
+    if root_rank {
+        println!("{done}");
+    }
+    match done.differing() {
+        n if args.reduced && n > 0 => Err(format!("{n} result(s) outside their reduced tolerance")),
+        _ => Ok(()),
     }
 }

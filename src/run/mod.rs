@@ -61,6 +61,22 @@ pub enum RunError {
     Interrupted(u64),
 }
 
+impl RunError {
+    /// Whether every rank of a distributed run meets this error alike (the deck, a refused
+    /// checkpoint, an unstable step), so each can stop with it; any other (a file rank 0
+    /// cannot write) is one rank's, and the others may be waiting for it.
+    pub fn on_every_rank(&self) -> bool {
+        matches!(
+            self,
+            RunError::Deck(_)
+                | RunError::Distributed(_)
+                | RunError::Checkpoint(_)
+                | RunError::Step(_)
+                | RunError::Stopped(_)
+        )
+    }
+}
+
 /// Options of `peridyn run`.
 #[derive(Debug, Clone)]
 pub struct RunOptions {

@@ -11,12 +11,14 @@ pub mod report;
 pub mod verdict;
 
 use crate::deck::case::LoadedCase;
+use crate::solver::ranks::Ranks;
 use crate::study_run::run_folder;
-use crate::study_run::{run_study, StudyOptions};
+use crate::study_run::{run_study_over, Spread, StudyOptions};
 use measured::{Measured, MeasuredRun};
 use others::Others;
 use report::CaseEntry;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Where and how cases run.
 #[derive(Debug, Clone)]
@@ -110,13 +112,17 @@ impl Layout {
 
 /// Runs a case (or continues it) and returns what it measured. The series runs one value at a
 /// time and `keep` receives the measurement after each, so a case stopped in its longest run
-/// (the finest grid) keeps what its shorter runs measured.
+/// (the finest grid) keeps what its shorter runs measured. With `over`, each run is one model
+/// over those ranks, and only rank 0 measures (the others return no runs) and keeps.
 pub fn run_case(
     case: &LoadedCase,
     layout: &Layout,
     opts: &ValidateOptions,
+    over: Option<&Arc<dyn Ranks>>,
     keep: &mut dyn FnMut(&Measured) -> Result<(), String>,
 ) -> Result<Measured, String> {
+    let spread = over.map_or(Spread::Alone, |r| Spread::RunOverRanks(r.clone()));
+    let root = over.is_none_or(|r| r.rank() == 0);
     let size = if opts.reduced { "reduced" } else { "full" };
     let mut measured = Measured {
         case: layout.relative(&case.file),
@@ -145,7 +151,7 @@ pub fn run_case(
         if let Some(factor) = part.study.factors.first_mut() {
             factor.values = Some(series[..upto].to_vec());
         }
-        let report = run_study(
+        let report = run_study_over(
             &part,
             &StudyOptions {
                 out_dir: out.clone(),
@@ -153,8 +159,13 @@ pub fn run_case(
                 quiet: opts.quiet,
                 from_run,
             },
+            &spread,
         )
         .map_err(|e| e.to_string())?;
+        if !root {
+            agreed(over, Ok(()))?;
+            continue;
+        }
         measured.wall_minutes = 0.0;
         measured.runs.clear();
         // Runs left out (`--last`, no status) are not measured here: `keep_full` keeps their
@@ -178,9 +189,18 @@ pub fn run_case(
                     .collect(),
             });
         }
-        keep(&measured)?;
+        agreed(over, if root { keep(&measured) } else { Ok(()) })?;
     }
     Ok(measured)
+}
+
+/// `local` on one process; over ranks, the lowest rank's error on every rank (so no rank goes
+/// on to wait for one that stopped).
+fn agreed(over: Option<&Arc<dyn Ranks>>, local: Result<(), String>) -> Result<(), String> {
+    match over {
+        None => local,
+        Some(r) => r.first_message(local.err()).map_or(Ok(()), Err),
+    }
 }
 
 /// The folder a case's runs go to.
@@ -377,13 +397,17 @@ impl std::fmt::Display for Validation {
 
 /// Runs `files` (every case of `layout` when empty) at the size `opts` says and judges them;
 /// full runs keep their measurements and figures and write the report again. `run = false`:
-/// only the report, from the committed measurements.
+/// only the report, from the committed measurements. With `over`, each run is one model over
+/// those ranks; rank 0 alone prints, judges and writes (the others' `Validation` is empty).
 pub fn validate(
     files: &[PathBuf],
     layout: &Layout,
     opts: &ValidateOptions,
     run: bool,
+    over: Option<Arc<dyn Ranks>>,
 ) -> Result<Validation, String> {
+    let over = over.as_ref();
+    let root = over.is_none_or(|r| r.rank() == 0);
     let files = if files.is_empty() {
         layout.cases()?
     } else {
@@ -396,10 +420,10 @@ pub fn validate(
     if run {
         for file in &files {
             let case = LoadedCase::from_file(file).map_err(|e| e.to_string())?;
-            if !opts.quiet {
+            if root && !opts.quiet {
                 println!("case {}: {}", layout.relative(file), case.case.title);
             }
-            let measured = run_case(&case, layout, opts, &mut |measured| {
+            let measured = run_case(&case, layout, opts, over, &mut |measured| {
                 if opts.reduced {
                     measured.write(&case_dir(&case, opts).join("measured.toml"))?;
                     figures::draw(
@@ -421,23 +445,43 @@ pub fn validate(
                     Ok(())
                 }
             })?;
-            // A full run judges what was kept: with `--first`, also the finer runs of before.
-            let kept = if opts.reduced {
-                measured
-            } else {
-                Measured::read(&layout.measured_file(&case))?.unwrap_or(measured)
+            let judged = match root {
+                true => judge(&case, measured, layout, opts).map(|rows| {
+                    done.cases.push((layout.relative(file), rows));
+                }),
+                false => Ok(()),
             };
-            let others = if opts.reduced {
-                Others::none()
-            } else {
-                Others::load(&case, layout)?
-            };
-            let rows = verdict::judge_case(&case, Some(&kept), opts.reduced, &others);
-            done.cases.push((layout.relative(file), rows));
+            agreed(over, judged)?;
         }
     }
-    if !run || !opts.reduced {
+    if root && (!run || !opts.reduced) {
         done.report = Some(write_report(layout)?);
     }
     Ok(done)
+}
+
+/// The rows of a case that ran. A full run judges what was kept: with `--first` or `--last`,
+/// also the runs of before.
+fn judge(
+    case: &LoadedCase,
+    measured: Measured,
+    layout: &Layout,
+    opts: &ValidateOptions,
+) -> Result<Vec<verdict::Row>, String> {
+    let kept = if opts.reduced {
+        measured
+    } else {
+        Measured::read(&layout.measured_file(case))?.unwrap_or(measured)
+    };
+    let others = if opts.reduced {
+        Others::none()
+    } else {
+        Others::load(case, layout)?
+    };
+    Ok(verdict::judge_case(
+        case,
+        Some(&kept),
+        opts.reduced,
+        &others,
+    ))
 }

@@ -75,7 +75,7 @@ fn reduced_cases_reproduce_the_papers_numbers() {
             None => cases.push(entry.case.file.clone()),
         }
     }
-    let done = validate(&cases, &layout(), &opts, true).unwrap_or_else(|e| panic!("{e}"));
+    let done = validate(&cases, &layout(), &opts, true, None).unwrap_or_else(|e| panic!("{e}"));
     println!("{done}");
     assert_eq!(
         done.differing(),
@@ -623,7 +623,7 @@ fn the_last_values_run_alone_and_the_others_keep_their_measurement() {
         threads: Some(1),
         quiet: true,
     };
-    run_case(&case, &layout, &opts, &mut |m| {
+    run_case(&case, &layout, &opts, None, &mut |m| {
         keep_full(&case, m, &layout, &opts)
     })
     .unwrap();
