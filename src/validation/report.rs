@@ -93,8 +93,8 @@ pub fn markdown(entries: &[CaseEntry], figure_dir: &str, figures_present: &Path)
                     "| [{}](#{}) | {} | {} | {} | {} | {} | {} | {} |",
                     r.id,
                     anchor(&e.case),
-                    r.quantity,
-                    r.source,
+                    cell(&r.quantity),
+                    cell(&r.source),
                     value(r.paper, &r.unit),
                     measured(r),
                     r.relative_difference().map_or(String::new(), |d| format!(
@@ -163,6 +163,11 @@ pub fn with_readme_summary(readme: &str, table: &str) -> Option<String> {
 
 const README_START: &str = "<!-- validation summary: written by `peridyn validate --report` -->";
 const README_END: &str = "<!-- end of validation summary -->";
+
+/// A text as one cell of a markdown table: a `|` (an absolute value, |x|) would end the cell.
+fn cell(text: &str) -> String {
+    text.replace('|', "\\|")
+}
 
 fn sign(d: f64) -> &'static str {
     if d < 0.0 {
@@ -249,4 +254,19 @@ fn case_section(e: &CaseEntry, rows: &[Row], figure_dir: &str, figures_present: 
     }
     md += "\n";
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cell;
+
+    /// An absolute value in a row's text stays inside its cell of the table.
+    #[test]
+    fn a_bar_in_a_table_cell_is_escaped() {
+        assert_eq!(
+            cell("the largest |angle| to x"),
+            "the largest \\|angle\\| to x"
+        );
+        assert_eq!(cell("no bar"), "no bar");
+    }
 }
