@@ -46,6 +46,15 @@ pub enum Spread {
     RunOverRanks(Arc<dyn Ranks>),
 }
 
+impl Spread {
+    fn ranks(&self) -> Option<&Arc<dyn Ranks>> {
+        match self {
+            Spread::Alone => None,
+            Spread::RunPerRank(r) | Spread::RunOverRanks(r) => Some(r),
+        }
+    }
+}
+
 /// Where and how a study runs.
 #[derive(Debug, Clone)]
 pub struct StudyOptions {
@@ -306,10 +315,7 @@ pub fn run_study_over(
         Spread::Alone | Spread::RunOverRanks(_) => (0, 1),
         Spread::RunPerRank(r) => (r.rank(), r.size()),
     };
-    let root = match spread {
-        Spread::Alone => true,
-        Spread::RunPerRank(r) | Spread::RunOverRanks(r) => r.rank() == 0,
-    };
+    let root = spread.ranks().is_none_or(|r| r.rank() == 0);
     let runs_dir = opts.out_dir.join("runs");
     std::fs::create_dir_all(&runs_dir).map_err(|e| io("create", &runs_dir, e))?;
     if root {

@@ -32,7 +32,7 @@ same_case() {
   if [ $ok = 1 ]; then echo "$3: measurement, runs.csv and histories identical"; else echo "$3: differ"; failed=1; fi
 }
 for case in "$@"; do
-  name=seed$(basename "$(dirname "$case")" | sed 's/^seed//')-$(basename "$case" .toml)
+  name=$(basename "$(dirname "$case")")-$(basename "$case" .toml)   # its results folder
   "$bin" validate "$case" --reduced -o "$out/1" --quiet --threads 1 >/dev/null
   for n in $ranks; do
     mpirun -np "$n" --oversubscribe "$bin" validate "$case" --reduced -o "$out/$n" --quiet --threads 1 >/dev/null
