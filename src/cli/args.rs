@@ -45,7 +45,8 @@ pub enum Command {
     /// energies, load–displacement per loaded node set, openings, broken bonds, time step.
     Plot { run_dir: PathBuf },
     /// Validate a deck and print the model it builds (nodes, bonds, δ/Δx, constants, dt, memory);
-    /// given a study file, validate it and every run's deck (as `study --dry-run`).
+    /// given a study file, validate it and every run's deck (as `study --dry-run`); given a
+    /// validation case, the same for its full and reduced versions.
     Check {
         deck: PathBuf,
         #[arg(long)]

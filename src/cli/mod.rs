@@ -5,6 +5,7 @@
 mod args;
 mod distributed;
 
+use crate::deck::case::LoadedCase;
 use crate::deck::study::LoadedStudy;
 use crate::deck::LoadedDeck;
 use crate::run::{check_timed, run_with, RunControl, RunOptions};
@@ -66,6 +67,29 @@ fn check_study(study: &std::path::Path, threads: Option<usize>) -> Result<(), St
     Ok(())
 }
 
+/// `peridyn check` of a validation case: the case and, for its full and reduced versions,
+/// every run's deck (a case runs as a sweep over its series).
+fn check_case(file: &std::path::Path, threads: Option<usize>) -> Result<(), String> {
+    let case = LoadedCase::from_file(file).map_err(|e| e.to_string())?;
+    for (reduced, size) in [(false, "full"), (true, "reduced")] {
+        let Some(study) = case.study(reduced) else {
+            println!(
+                "{}: case is valid; it runs nothing (no deck)",
+                file.display()
+            );
+            return Ok(());
+        };
+        let runs = plan_study(&study, threads).map_err(|e| e.to_string())?;
+        let n = runs.len();
+        let noun = if n == 1 { "run" } else { "runs" };
+        println!(
+            "{}: case is valid; {size}: {n} {noun}, every run's deck is valid and builds",
+            file.display()
+        );
+    }
+    Ok(())
+}
+
 /// Runs the command line of this process's arguments. `world`: the ranks of a process started
 /// by `mpirun` (the `peridyn-mpi` program); with more than one, `run` and `study` are
 /// distributed over them.
@@ -119,7 +143,11 @@ pub fn main(world: Option<Arc<dyn Ranks>>) -> ExitCode {
             ranks,
             rank_memory,
         } => (|| {
-            if std::fs::read_to_string(&deck).is_ok_and(|src| LoadedStudy::is_study(&src)) {
+            let src = std::fs::read_to_string(&deck).unwrap_or_default();
+            if LoadedCase::is_case(&src) {
+                return check_case(&deck, threads);
+            }
+            if LoadedStudy::is_study(&src) {
                 return check_study(&deck, threads);
             }
             let ld = LoadedDeck::from_file(&deck).map_err(|e| e.to_string())?;

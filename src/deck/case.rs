@@ -254,6 +254,13 @@ pub struct LoadedCase {
 }
 
 impl LoadedCase {
+    /// Whether the TOML text is a validation case (it names its paper) rather than a study
+    /// or a deck: `peridyn check` takes all three.
+    pub fn is_case(src: &str) -> bool {
+        src.parse::<toml::Table>()
+            .is_ok_and(|t| t.get("paper").is_some_and(|v| v.is_str()))
+    }
+
     /// Reads, parses and validates a case file and its deck.
     pub fn from_file(path: &Path) -> Result<Self, DeckError> {
         let src = std::fs::read_to_string(path).map_err(|source| DeckError::Io {

@@ -337,4 +337,8 @@ fn check_takes_a_study_file_or_a_deck() {
     ));
     let deck = check("examples/quickstart.toml");
     assert!(deck.contains("deck is valid"), "{deck}");
+    // A validation case is checked as a case: both its versions, each run's deck.
+    let case = check("validation/seed002/ex_c_branching_du70.toml");
+    assert!(case.contains("full: 3 runs"), "{case}");
+    assert!(case.contains("reduced: 1 run,"), "{case}");
 }
