@@ -598,6 +598,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
             against: column(o.against.as_deref())?,
             first: o.first.unwrap_or(0.0),
         },
+        Some(Reduce::ForkOpening) => Reduction::ForkOpening(column(o.against.as_deref())?),
     };
     table.reduce(o.column.as_deref().unwrap_or(""), how, window(o))
 }

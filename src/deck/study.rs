@@ -136,7 +136,7 @@ pub struct OutputSpec {
     /// Only rows with `time` ≥ this (s) count (a crack speed once the crack runs).
     pub from: Option<f64>,
     /// `pearson`, `max_distance`: the second column of the same file; `angle`, `slope`: the
-    /// abscissa column.
+    /// abscissa column; `fork_opening`: the column numbering the forks.
     pub against: Option<String>,
     /// `at_first_above`: the column that must pass `threshold` (in `when_file`).
     pub when_column: Option<String>,
@@ -205,6 +205,11 @@ pub enum Reduce {
     /// The angle (degrees) of the least-squares line of the column against the column
     /// `against`, over the rows within `first` of the first row (a crack's initial direction).
     Angle,
+    /// The opening of the first fork: the largest minus the smallest value of the column (a
+    /// branch's angle to the x axis) over the rows of the first fork, the rows sharing the
+    /// first row's value of the column `against` (`fork` in `branching.csv`) that have at
+    /// least two values (the angle between a fork's outer daughter cracks).
+    ForkOpening,
 }
 
 /// A parsed and validated study with its base deck.
@@ -582,7 +587,7 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     let Some(reduce) = o.reduce else {
         issue(
             "reduce",
-            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson, max_distance, slope or angle".into(),
+            "expected how the column becomes one number: final, max, peak, largest_drop, min, max_abs, first_time_above, time_of_max, at_first_above, mean, count, pearson, max_distance, slope, angle or fork_opening".into(),
         );
         return issues;
     };
@@ -615,17 +620,17 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
     }
     let uses_against = matches!(
         reduce,
-        Reduce::Pearson | Reduce::MaxDistance | Reduce::Slope | Reduce::Angle
+        Reduce::Pearson | Reduce::MaxDistance | Reduce::Slope | Reduce::Angle | Reduce::ForkOpening
     );
     match &o.against {
         None if uses_against => issue(
             "reduce",
-            "pearson, max_distance, slope and angle need `against`: the second column of the file"
+            "pearson, max_distance, slope, angle and fork_opening need `against`: the second column of the file"
                 .into(),
         ),
         Some(_) if !uses_against => issue(
             "against",
-            "`against` is used by reduce = \"pearson\", \"max_distance\", \"slope\" or \"angle\" only"
+            "`against` is used by reduce = \"pearson\", \"max_distance\", \"slope\", \"angle\" or \"fork_opening\" only"
                 .into(),
         ),
         _ => {}

@@ -1,8 +1,8 @@
 //! The numbers a study reads from one run: a CSV table (header, rows of numbers) and the
 //! reductions that turn one of its columns into a scalar (final, max, peak, min, max |·|, the time a
 //! level is first passed, the time of the largest value, the mean, the count of values, the
-//! Pearson correlation with a second column, the angle of a path's first part), optionally over a window of time, and a column's
-//! value at a given time.
+//! Pearson correlation with a second column, the angle of a path's first part, the opening of
+//! the first fork), optionally over a window of time, and a column's value at a given time.
 
 use crate::analysis::crack_path::pearson;
 
@@ -56,6 +56,12 @@ pub enum Reduction {
         against: usize,
         first: f64,
     },
+    /// The largest minus the smallest value of the column over the rows of the first group
+    /// (rows sharing a value of the given column, in the order the groups first appear) that
+    /// has two values: the angle between the outer branches of the first fork of
+    /// `branching.csv`, grouped by `fork` (a fork whose branches were too short to fit an
+    /// angle is passed over).
+    ForkOpening(usize),
 }
 
 /// The rows of a table that count: those with `from` ≤ time ≤ `until` (each bound optional).
@@ -190,6 +196,15 @@ impl Table {
                     .filter(|p| start.is_some_and(|s| (p.0 - s).abs() <= first))
                     .collect();
                 least_squares_slope(&part).map(|m| m.atan().to_degrees())
+            }
+            Reduction::ForkOpening(fork) => {
+                let mut forks: Vec<f64> = paired(fork).map(|(f, _)| f).collect();
+                forks.dedup();
+                forks.into_iter().find_map(|f| {
+                    let angles = || paired(fork).filter(move |&(g, _)| g == f).map(|(_, a)| a);
+                    let widest = angles().reduce(f64::max)? - angles().reduce(f64::min)?;
+                    (angles().count() >= 2).then_some(widest)
+                })
             }
         })
     }
@@ -472,6 +487,38 @@ mod tests {
             )
             .unwrap();
         assert!((a.unwrap() + 45.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_opening_of_the_first_fork_is_the_angle_between_its_outer_branches() {
+        // branching.csv as the crack-path analysis writes it: fork 0 has branches too short
+        // to fit an angle; fork 1 opens at −19.9° and +25.0° (44.9° between them); fork 2,
+        // later, has three branches spread over 70°.
+        let csv = "time,fork,branch,angle_deg\n\
+                   1,0,0,\n1,0,1,\n\
+                   2,1,0,-19.9\n2,1,1,25.0\n\
+                   3,2,0,-50.0\n3,2,1,20.0\n3,2,2,-10.0\n";
+        let t = Table::parse(csv).unwrap();
+        let fork = t.column("fork").unwrap();
+        let opening = |from| {
+            t.reduce(
+                "angle_deg",
+                Reduction::ForkOpening(fork),
+                Window { from, until: None },
+            )
+            .unwrap()
+        };
+        assert!((opening(None).unwrap() - 44.9).abs() < 1e-12);
+        // From t = 2.5 on the first fork is fork 2: its outer branches are 70° apart, the
+        // middle one does not count.
+        assert!((opening(Some(2.5)).unwrap() - 70.0).abs() < 1e-12);
+        // A fork with one fitted branch has no opening; no fork at all, no value.
+        let one = Table::parse("time,fork,angle_deg\n1,0,12.0\n1,0,\n").unwrap();
+        let r = one.reduce("angle_deg", Reduction::ForkOpening(1), Window::default());
+        assert_eq!(r.unwrap(), None);
+        let none = Table::parse("time,fork,angle_deg\n").unwrap();
+        let r = none.reduce("angle_deg", Reduction::ForkOpening(1), Window::default());
+        assert_eq!(r.unwrap(), None);
     }
 
     #[test]
