@@ -597,6 +597,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         Some(Reduce::Angle) => Reduction::Angle {
             against: column(o.against.as_deref())?,
             first: o.first.unwrap_or(0.0),
+            between: o.between,
         },
         Some(Reduce::ForkOpening) => Reduction::ForkOpening(column(o.against.as_deref())?),
     };

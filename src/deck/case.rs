@@ -74,6 +74,10 @@ pub struct SeriesLinkSpec {
     pub reduced: Option<Vec<f64>>,
 }
 
+/// The output every run has without an `[[outputs]]` entry: its wall time in minutes, as its
+/// summary reports it (a comparison of two grids' cost, seed 003 Table 3).
+pub const WALL_MINUTES: &str = "wall_minutes";
+
 /// An output computed from others of the same run: exactly one of `sum`, `min`, `max` (of
 /// the listed outputs that have a value: the first of several cracks to start), `difference`
 /// (first − second) or `ratio` (first / second). With `other_case`, the second output of a
@@ -489,10 +493,13 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 format!("expected letters, digits, '_' or '-', got {:?}", o.name),
             );
         }
-        if case.outputs[..k].iter().any(|p| p.name == o.name) {
+        if case.outputs[..k].iter().any(|p| p.name == o.name) || o.name == WALL_MINUTES {
             issue(
                 format!("outputs[{k}].name"),
-                format!("output `{}` is named twice", o.name),
+                format!(
+                    "output `{}` is named twice (`{WALL_MINUTES}` is every run's)",
+                    o.name
+                ),
             );
         }
         for (key, message) in super::study::output_issues(o) {
@@ -502,7 +509,8 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
     for (k, d) in case.derived.iter().enumerate() {
         let at = |key: &str| format!("derived[{k}].{key}");
         let known_before = |n: &str| {
-            case.outputs.iter().any(|o| o.name == n)
+            n == WALL_MINUTES
+                || case.outputs.iter().any(|o| o.name == n)
                 || case.derived[..k].iter().any(|e| e.name == n)
         };
         if !is_name(&d.name) {
@@ -545,7 +553,9 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         }
     }
     let output_known = |name: &str| {
-        case.outputs.iter().any(|o| o.name == name) || case.derived.iter().any(|d| d.name == name)
+        name == WALL_MINUTES
+            || case.outputs.iter().any(|o| o.name == name)
+            || case.derived.iter().any(|d| d.name == name)
     };
     let outputs = || {
         case.outputs

@@ -147,8 +147,8 @@ pub struct OutputSpec {
     /// `time_of_max`: a row within this of the largest value counts as at it (a tip's
     /// position is resolved to one grid spacing; default 0).
     pub within: Option<f64>,
-    /// `slope`: only rows whose value of the column lies in [low, high] (a crack tip between
-    /// the notch and the far edge).
+    /// `slope`, `angle`: only rows whose value of the column lies in [low, high] (a crack tip
+    /// between the notch and the far edge; one of two cracks in one path file).
     pub between: Option<[f64; 2]>,
 }
 
@@ -203,7 +203,8 @@ pub enum Reduce {
     /// reader takes it from a plot of the tip's position).
     Slope,
     /// The angle (degrees) of the least-squares line of the column against the column
-    /// `against`, over the rows within `first` of the first row (a crack's initial direction).
+    /// `against`, over the rows within `first` of the first row (a crack's initial direction),
+    /// of those whose value lies `between` two levels when given.
     Angle,
     /// The opening of the first fork: the largest minus the smallest value of the column (a
     /// branch's angle to the x axis) over the rows of the first fork, the rows sharing the
@@ -636,9 +637,9 @@ pub(crate) fn output_issues(o: &OutputSpec) -> Vec<(&'static str, String)> {
         _ => {}
     }
     match o.between {
-        Some(b) if reduce != Reduce::Slope => issue(
+        Some(b) if !matches!(reduce, Reduce::Slope | Reduce::Angle) => issue(
             "between",
-            format!("`between` ({b:?}) is used by reduce = \"slope\" only"),
+            format!("`between` ({b:?}) is used by reduce = \"slope\" or \"angle\" only"),
         ),
         Some([low, high]) if !(low.is_finite() && high.is_finite() && low < high) => issue(
             "between",

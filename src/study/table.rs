@@ -50,11 +50,13 @@ pub enum Reduction {
     },
     /// The angle in degrees, atan of the least-squares slope, of the column against the
     /// column `against` over the rows whose `against` lies within `first` of the first row's
-    /// (the direction of a crack path's first part); a point repeated in successive rows (a
-    /// tip sampled while it stands still) counts once.
+    /// (the direction of a crack path's first part), of the rows whose value of the column
+    /// lies in [low, high] when given (one of two cracks in one path file); a point repeated
+    /// in successive rows (a tip sampled while it stands still) counts once.
     Angle {
         against: usize,
         first: f64,
+        between: Option<[f64; 2]>,
     },
     /// The largest minus the smallest value of the column over the rows of the first group
     /// (rows sharing a value of the given column, in the order the groups first appear) that
@@ -181,12 +183,19 @@ impl Table {
                 paired(other).map(|(o, v)| (v - o).abs()).reduce(f64::max)
             }
             Reduction::Slope { against, between } => {
-                let inside = |v: f64| between.is_none_or(|[low, high]| (low..=high).contains(&v));
-                let points: Vec<(f64, f64)> = paired(against).filter(|&(_, v)| inside(v)).collect();
+                let points: Vec<(f64, f64)> = paired(against)
+                    .filter(|&(_, v)| inside(between, v))
+                    .collect();
                 least_squares_slope(&points)
             }
-            Reduction::Angle { against, first } => {
-                let mut points: Vec<(f64, f64)> = paired(against).collect();
+            Reduction::Angle {
+                against,
+                first,
+                between,
+            } => {
+                let mut points: Vec<(f64, f64)> = paired(against)
+                    .filter(|&(_, v)| inside(between, v))
+                    .collect();
                 // A tip sampled while it stands still repeats its point: the path is its
                 // distinct points, not the time spent at each.
                 points.dedup();
@@ -236,6 +245,11 @@ impl Table {
             })
         }))
     }
+}
+
+/// Whether `v` lies in [low, high] (always, without bounds).
+fn inside(between: Option<[f64; 2]>, v: f64) -> bool {
+    between.is_none_or(|[low, high]| (low..=high).contains(&v))
 }
 
 /// The slope of the least-squares line y = a + m x through `points` (x, y); `None` with fewer
@@ -447,7 +461,11 @@ mod tests {
         let angle = |first| {
             t.reduce(
                 "y",
-                Reduction::Angle { against: x, first },
+                Reduction::Angle {
+                    against: x,
+                    first,
+                    between: None,
+                },
                 Window::default(),
             )
             .unwrap()
@@ -469,6 +487,7 @@ mod tests {
                 Reduction::Angle {
                     against: x,
                     first: 3.0,
+                    between: None,
                 },
                 Window::default(),
             )
@@ -482,11 +501,31 @@ mod tests {
                 Reduction::Angle {
                     against: 0,
                     first: 1.0,
+                    between: None,
                 },
                 Window::default(),
             )
             .unwrap();
         assert!((a.unwrap() + 45.0).abs() < 1e-12);
+        // Two cracks in one path file (y against x): one falling at 45° below y = 1, one
+        // rising at 30° above y = 2; `between` picks each.
+        let csv = format!("x,y\n0,1\n1,0\n3,2\n4,{}\n", 2.0 + 1.0 / r3);
+        let two = Table::parse(&csv).unwrap();
+        let angle = |between| {
+            two.reduce(
+                "y",
+                Reduction::Angle {
+                    against: 0,
+                    first: 10.0,
+                    between: Some(between),
+                },
+                Window::default(),
+            )
+            .unwrap()
+            .unwrap()
+        };
+        assert!((angle([0.0, 1.0]) + 45.0).abs() < 1e-12);
+        assert!((angle([2.0, 3.0]) - 30.0).abs() < 1e-12);
     }
 
     #[test]

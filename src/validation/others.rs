@@ -7,7 +7,7 @@
 
 use super::measured::{Measured, MeasuredRun};
 use super::Layout;
-use crate::deck::case::LoadedCase;
+use crate::deck::case::{LoadedCase, WALL_MINUTES};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -53,7 +53,8 @@ impl Others {
                 .map(|pair| &pair[1])
                 .next();
             if let Some(name) = second {
-                let known = other.case.outputs.iter().any(|o| &o.name == name)
+                let known = name == WALL_MINUTES
+                    || other.case.outputs.iter().any(|o| &o.name == name)
                     || other.case.derived.iter().any(|o| &o.name == name);
                 if !known {
                     return Err(format!(
@@ -137,10 +138,11 @@ fn same_key(case: &LoadedCase, other: &LoadedCase) -> bool {
 }
 
 impl MeasuredRun {
-    /// Its outputs and the case's derived outputs, computed in order from them; a comparison
-    /// across cases reads its second input from `others`.
+    /// Its outputs, its wall time and the case's derived outputs, computed in order from
+    /// them; a comparison across cases reads its second input from `others`.
     pub fn values(&self, case: &LoadedCase, others: &Others) -> BTreeMap<String, f64> {
         let mut values = self.outputs.clone();
+        values.insert(WALL_MINUTES.into(), self.wall_minutes);
         for d in &case.case.derived {
             let of_other = |n: &str| {
                 d.other_case

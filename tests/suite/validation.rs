@@ -325,6 +325,11 @@ fn bad_case_files_are_refused_at_their_key() {
             "derived[1].name: no output `thrice`",
         ),
         (
+            "name = \"speed\"",
+            "name = \"wall_minutes\"",
+            "outputs[0].name: output `wall_minutes` is named twice (`wall_minutes` is every run's)",
+        ),
+        (
             "sum = [\"speed\", \"speed\"]",
             "sum = [\"speed\", \"speed\"]\nother_case = \"b.toml\"",
             "derived[0].other_case: `other_case` goes with `difference` or `ratio`",
@@ -505,6 +510,46 @@ fn a_comparison_across_cases_of_the_same_key_pairs_the_runs_by_value() {
         e.contains("validation/seed002/b.toml has no full run at 400"),
         "{e}"
     );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Every run has its wall time as an output: one case's cost over another's (seed 003's
+/// Table 3) is a ratio across cases of `wall_minutes`, paired run by run.
+#[test]
+fn a_wall_time_ratio_across_cases() {
+    let root = scratch("across-wall");
+    let (layout, _) = two_cases(&root, "[30.0, 40.0]");
+    let a = root.join("validation/seed002/a.toml");
+    let text = std::fs::read_to_string(&a).unwrap();
+    let start = text.find("[[derived]]").unwrap();
+    let costlier = format!(
+        "{}[[derived]]\nname = \"cost\"\nratio = [\"wall_minutes\", \"wall_minutes\"]\n\
+         other_case = \"b.toml\"\n",
+        &text[..start]
+    );
+    std::fs::write(&a, costlier).unwrap();
+    let a = LoadedCase::from_file(&a).unwrap_or_else(|e| panic!("{e}"));
+    let others = Others::load(&a, &layout).unwrap_or_else(|e| panic!("{e}"));
+    // b's runs took 1 minute each (speed_run); a's 2.5 and 0.5.
+    let measured = Measured {
+        runs: vec![
+            MeasuredRun {
+                wall_minutes: 2.5,
+                ..speed_run(300.0, 480.0)
+            },
+            MeasuredRun {
+                wall_minutes: 0.5,
+                ..speed_run(400.0, 590.0)
+            },
+        ],
+        ..Measured::default()
+    };
+    let cost: Vec<f64> = measured
+        .runs
+        .iter()
+        .map(|r| r.values(&a, &others)["cost"])
+        .collect();
+    assert_eq!(cost, [2.5, 0.5]);
     let _ = std::fs::remove_dir_all(&root);
 }
 
