@@ -282,7 +282,7 @@ fn bad_study_files_are_refused_at_their_key() {
         ),
         (
             "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[outputs]]\nname = \"v\"\nfile = \"crack_tip.csv\"\ncolumn = \"crack_x\"\nreduce = \"max\"\nbetween = [0.004, 0.03]\n",
-            "outputs[0].between: `between` ([0.004, 0.03]) is used by reduce = \"slope\" only",
+            "outputs[0].between: `between` ([0.004, 0.03]) is used by reduce = \"slope\" or \"angle\" only",
         ),
     ];
     for (body, expected) in cases {
