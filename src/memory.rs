@@ -23,6 +23,16 @@ pub fn bytes_per_bond(stored: usize) -> usize {
     stored.max(24)
 }
 
+/// Bytes per directed bond that an adaptive dynamic relaxation holds besides the run's state,
+/// for a state of `state_bytes` per bond (status and damage history): two more copies, the
+/// fresh state its spectrum is measured on and the start it keeps to begin again from.
+/// Measured on seed 002's 3D deck: with them the estimate is 1-15 % below the peak resident
+/// memory at Δx = 80, 160 and 250 µm, where without them it was 2.1-2.4× low
+/// (docs/performance.md, "Memory").
+pub fn relaxation_bytes_per_bond(state_bytes: usize) -> usize {
+    2 * state_bytes
+}
+
 /// The memory this machine can still give (MemAvailable of /proc/meminfo), if known.
 pub fn available_bytes() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;

@@ -431,10 +431,16 @@ pub fn build_model_with<const D: usize>(
         };
         damage_history_words(&m.damage(), force)
     };
+    // An adaptive dynamic relaxation holds copies of each bond's status and history.
+    let relaxation = match deck.relaxes() {
+        true => memory::relaxation_bytes_per_bond(1 + 8 * history),
+        false => 0,
+    };
+    let exact = if rule == PartialVolume::Exact { 2 } else { 0 };
     let families = Families {
         rule,
         bytes_per_bond: memory::bytes_per_bond(
-            Bonds::BYTES_PER_BOND + 8 * history + if rule == PartialVolume::Exact { 2 } else { 0 },
+            Bonds::BYTES_PER_BOND + 8 * history + exact + relaxation,
         ),
         bytes_per_node: per_node,
     };
@@ -633,6 +639,20 @@ fn damage_history_words(d: &DamageDeck, force: BondForce) -> usize {
 }
 
 impl Deck {
+    /// Whether a solver of the run (its own or a stage's) is adaptive dynamic relaxation.
+    pub fn relaxes(&self) -> bool {
+        let adr = |s: &SolverDeck| {
+            matches!(
+                s,
+                SolverDeck::QuasiStatic {
+                    method: QuasiStaticMethod::Adr,
+                    ..
+                }
+            )
+        };
+        adr(&self.solver) || self.stages.iter().any(|st| adr(&st.solver))
+    }
+
     /// The material tables of the given keys ("material", "materials.NAME").
     pub fn materials_in_use<'a>(
         &'a self,

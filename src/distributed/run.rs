@@ -291,7 +291,7 @@ fn whole_report<const D: usize, M: Material<D>>(
     report.bonds_per_node = directed as f64 / nodes.max(1) as f64;
     report.memory_bytes = nodes
         * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>() + M::NODE_BYTES)
-        + directed * report.bytes_per_bond;
+        + directed * (report.bytes_per_bond + report.relaxation_bytes_per_bond);
     if let Some(g) = grid {
         report.grid = g;
     }

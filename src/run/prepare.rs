@@ -134,6 +134,10 @@ pub fn prepare_shared<const D: usize, M: Material<D>>(
     let nodes = sim.body.len();
     let bytes_per_bond =
         crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history_bytes;
+    let relaxation_bytes_per_bond = match ld.deck.relaxes() {
+        true => crate::memory::relaxation_bytes_per_bond(1 + history_bytes),
+        false => 0,
+    };
     let join = |f: fn(&MaterialReport) -> &str| {
         let mut names: Vec<&str> = reports.iter().map(f).collect();
         names.dedup();
@@ -166,8 +170,9 @@ pub fn prepare_shared<const D: usize, M: Material<D>>(
         end_time: steps as f64 * sim.dt,
         memory_bytes: nodes
             * crate::memory::bytes_per_node(D, std::mem::size_of::<M::Point>() + M::NODE_BYTES)
-            + sim.bonds.len() * bytes_per_bond,
+            + sim.bonds.len() * (bytes_per_bond + relaxation_bytes_per_bond),
         bytes_per_bond,
+        relaxation_bytes_per_bond,
         materials: reports,
         grid,
         surface_correction: surface,

@@ -43,6 +43,10 @@ pub struct ModelReport {
     pub end_time: f64,
     pub memory_bytes: usize,
     pub bytes_per_bond: usize,
+    /// What an adaptive dynamic relaxation holds per directed bond besides them (0 without
+    /// one): counted in `memory_bytes`.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub relaxation_bytes_per_bond: usize,
     /// Every material as calibrated.
     pub materials: Vec<MaterialReport>,
     pub grid: crate::grid::GridReport,
@@ -155,7 +159,15 @@ impl std::fmt::Display for ModelReport {
             f,
             "memory estimate  {:.1} MB",
             self.memory_bytes as f64 / 1e6
-        )
+        )?;
+        if self.relaxation_bytes_per_bond > 0 {
+            write!(
+                f,
+                " (with the {} B per directed bond the relaxation holds)",
+                self.relaxation_bytes_per_bond
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -210,4 +222,8 @@ impl std::fmt::Display for RunSummary {
         writeln!(f, "timers           {}", self.timers)?;
         write!(f, "results in       {}", self.out_dir.display())
     }
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }

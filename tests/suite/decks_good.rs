@@ -316,3 +316,23 @@ fn check_times_the_steps_of_an_explicit_run_only() {
         assert!(time.is_none(), "{name}: {} timed", report.solver);
     }
 }
+
+/// A deck relaxed by ADR is estimated with the relaxation's two copies of each directed
+/// bond's status and history (measured: docs/performance.md, "Memory"); an explicit deck
+/// without them.
+#[test]
+fn the_memory_estimate_counts_the_relaxations_copies() {
+    let path = root().join("validation/seed002/decks/ex_d_monotonic_3d.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("spacing = 80e-6 ", "spacing = 250e-6 ");
+    let ld = LoadedDeck::from_str(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+    let r = check(&ld, Some(1)).unwrap();
+    // LPS under one critical energy: a status byte and two work words per directed bond.
+    assert_eq!(r.bytes_per_bond, 4 + 8 + 1 + 16);
+    assert_eq!(r.relaxation_bytes_per_bond, 2 * (1 + 16));
+    let directed = 2 * r.bonds;
+    assert!(r.memory_bytes > directed * (r.bytes_per_bond + r.relaxation_bytes_per_bond));
+    let explicit = LoadedDeck::from_file(&root().join("examples/quickstart.toml")).unwrap();
+    assert_eq!(check(&explicit, Some(1)).unwrap().relaxation_bytes_per_bond, 0);
+}
