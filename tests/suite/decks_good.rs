@@ -334,5 +334,8 @@ fn the_memory_estimate_counts_the_relaxations_copies() {
     let directed = 2 * r.bonds;
     assert!(r.memory_bytes > directed * (r.bytes_per_bond + r.relaxation_bytes_per_bond));
     let explicit = LoadedDeck::from_file(&root().join("examples/quickstart.toml")).unwrap();
-    assert_eq!(check(&explicit, Some(1)).unwrap().relaxation_bytes_per_bond, 0);
+    assert_eq!(
+        check(&explicit, Some(1)).unwrap().relaxation_bytes_per_bond,
+        0
+    );
 }
