@@ -24,8 +24,8 @@ pub fn bytes_per_bond(stored: usize) -> usize {
 }
 
 /// Bytes per directed bond that an adaptive dynamic relaxation holds besides the run's state,
-/// for a state of `state_bytes` per bond (status and damage history): two more copies, the
-/// fresh state its spectrum is measured on and the start it keeps to begin again from.
+/// for a state of `state_bytes` per bond (status and damage history): two more copies (a heap
+/// profile finds the fresh state its spectrum is measured on and a copy made in the stage loop).
 /// Measured on seed 002's 3D deck: with them the estimate is 1-15 % below the peak resident
 /// memory at Δx = 80, 160 and 250 µm, where without them it was 2.1-2.4× low
 /// (docs/performance.md, "Memory").
