@@ -431,11 +431,7 @@ pub fn build_model_with<const D: usize>(
         };
         damage_history_words(&m.damage(), force)
     };
-    // An adaptive dynamic relaxation holds copies of each bond's status and history.
-    let relaxation = match deck.relaxes() {
-        true => memory::relaxation_bytes_per_bond(1 + 8 * history),
-        false => 0,
-    };
+    let relaxation = deck.relaxation_bytes_per_bond(8 * history);
     let exact = if rule == PartialVolume::Exact { 2 } else { 0 };
     let families = Families {
         rule,
@@ -639,8 +635,18 @@ fn damage_history_words(d: &DamageDeck, force: BondForce) -> usize {
 }
 
 impl Deck {
+    /// What an adaptive dynamic relaxation of the run (its own solver's or a stage's) holds
+    /// per directed bond besides the run's state: copies of each bond's status byte and
+    /// `history_bytes` (`memory::relaxation_bytes_per_bond`); 0 without one.
+    pub fn relaxation_bytes_per_bond(&self, history_bytes: usize) -> usize {
+        match self.relaxes() {
+            true => memory::relaxation_bytes_per_bond(1 + history_bytes),
+            false => 0,
+        }
+    }
+
     /// Whether a solver of the run (its own or a stage's) is adaptive dynamic relaxation.
-    pub fn relaxes(&self) -> bool {
+    fn relaxes(&self) -> bool {
         let adr = |s: &SolverDeck| {
             matches!(
                 s,

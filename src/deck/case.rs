@@ -78,6 +78,16 @@ pub struct SeriesLinkSpec {
 /// summary reports it (a comparison of two grids' cost, seed 003 Table 3).
 pub const WALL_MINUTES: &str = "wall_minutes";
 
+impl CaseFile {
+    /// Whether a run of this case has an output `name`: one of its outputs, its derived
+    /// outputs or its wall time.
+    pub fn has_output(&self, name: &str) -> bool {
+        name == WALL_MINUTES
+            || self.outputs.iter().any(|o| o.name == name)
+            || self.derived.iter().any(|d| d.name == name)
+    }
+}
+
 /// An output computed from others of the same run: exactly one of `sum`, `min`, `max` (of
 /// the listed outputs that have a value: the first of several cracks to start), `difference`
 /// (first − second) or `ratio` (first / second). With `other_case`, the second output of a
@@ -552,11 +562,6 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
             }
         }
     }
-    let output_known = |name: &str| {
-        name == WALL_MINUTES
-            || case.outputs.iter().any(|o| o.name == name)
-            || case.derived.iter().any(|d| d.name == name)
-    };
     let outputs = || {
         case.outputs
             .iter()
@@ -567,7 +572,7 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
     };
     for (k, r) in case.results.iter().enumerate() {
         let at = |key: &str| format!("results[{k}].{key}");
-        if !output_known(&r.output) {
+        if !case.has_output(&r.output) {
             issue(
                 at("output"),
                 format!("no output `{}` (the outputs are: {})", r.output, outputs()),
@@ -693,7 +698,7 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 issue(at(axis), "`series = true` needs a [series]".into());
             }
             if let Some(o) = &a.output {
-                if !output_known(o) {
+                if !case.has_output(o) {
                     issue(
                         at(axis),
                         format!("no output `{o}` (the outputs are: {})", outputs()),

@@ -134,10 +134,7 @@ pub fn prepare_shared<const D: usize, M: Material<D>>(
     let nodes = sim.body.len();
     let bytes_per_bond =
         crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history_bytes;
-    let relaxation_bytes_per_bond = match ld.deck.relaxes() {
-        true => crate::memory::relaxation_bytes_per_bond(1 + history_bytes),
-        false => 0,
-    };
+    let relaxation_bytes_per_bond = ld.deck.relaxation_bytes_per_bond(history_bytes);
     let join = |f: fn(&MaterialReport) -> &str| {
         let mut names: Vec<&str> = reports.iter().map(f).collect();
         names.dedup();

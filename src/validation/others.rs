@@ -53,10 +53,7 @@ impl Others {
                 .map(|pair| &pair[1])
                 .next();
             if let Some(name) = second {
-                let known = name == WALL_MINUTES
-                    || other.case.outputs.iter().any(|o| &o.name == name)
-                    || other.case.derived.iter().any(|o| &o.name == name);
-                if !known {
+                if !other.case.has_output(name) {
                     return Err(format!(
                         "{at}: {} has no output `{name}`",
                         layout.relative(&other.file)
