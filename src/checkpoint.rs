@@ -31,18 +31,28 @@ use crate::solver::impactor::ImpactorState;
 use crate::solver::quasi_static::{LoadStepReport, QuasiStaticMemory, StepInProgress};
 use crate::solver::quasi_static_memory::{RelaxationPaused, RelaxationStart, WorkRecord};
 use crate::state::State;
-use std::io::{self, Write};
+use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub const FILE_NAME: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"PDYNCKPT";
-const FORMAT: u32 = 5;
-/// The format before load steps could pause, still read: it is format 5 without the header's
-/// word for the load step in progress and without the Gershgorin scalar.
+const FORMAT: u32 = 6;
+/// The earliest format still read: 4, before load steps could pause (without the header's
+/// word for the load step in progress and the Gershgorin scalar), and 5, before the spectral
+/// radius was kept (without its three scalars).
 const EARLIER_FORMAT: u32 = 4;
 /// State and driver scalars in the payload.
-const SCALARS: usize = 21;
+const SCALARS: usize = 24;
+
+/// The scalars a checkpoint of `format` holds.
+fn scalars_in(format: u32) -> usize {
+    match format {
+        4 => SCALARS - 4,
+        5 => SCALARS - 3,
+        _ => SCALARS,
+    }
+}
 /// Scalars of a load step in progress.
 const IN_STEP_SCALARS: usize = 8;
 
@@ -139,7 +149,7 @@ pub enum CheckpointError {
     Io(#[from] io::Error),
     #[error("{} is not a peridyn checkpoint (it does not start with {:?})", .0.display(), std::str::from_utf8(MAGIC).unwrap_or_default())]
     NotCheckpoint(PathBuf),
-    #[error("{} has checkpoint format {found}; this peridyn reads formats {EARLIER_FORMAT} and {FORMAT}", path.display())]
+    #[error("{} has checkpoint format {found}; this peridyn reads formats {EARLIER_FORMAT} to {FORMAT}", path.display())]
     Format { path: PathBuf, found: u32 },
     #[error("checkpoint {} was written by peridyn {found}; this is peridyn {}: continue the run with the version that started it", path.display(), env!("CARGO_PKG_VERSION"))]
     Version { path: PathBuf, found: String },
@@ -461,6 +471,9 @@ pub fn write_with<const D: usize>(
             qs_previous.is_some() as u64,
             qs_previous.map_or(0.0, |(t, _)| *t).to_bits(),
             qs.is_some_and(|m| m.gershgorin) as u64,
+            qs.is_some_and(|m| m.spectrum.is_some()) as u64,
+            qs.and_then(|m| m.spectrum).map_or(0.0, |s| s.0).to_bits(),
+            qs.and_then(|m| m.spectrum).map_or(0, |s| s.1),
         ];
         for x in scalars {
             w.write_all(&x.to_le_bytes())?;
@@ -478,36 +491,71 @@ pub fn write_with<const D: usize>(
     })
 }
 
-/// Reads the file front to back; running past its end is truncation.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
+/// Reads a checkpoint front to back, from the file or from bytes already read; running past
+/// its end is truncation. The arrays go straight into their destinations (a checkpoint of a
+/// large run is as large as its state: reading it whole first would need its size twice).
+struct Reader<'a, R> {
+    source: R,
+    pos: u64,
+    /// The file's length, which a truncation names.
+    len: u64,
     path: &'a Path,
 }
 
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], CheckpointError> {
-        let end = self.pos.saturating_add(n);
-        if end > self.bytes.len() {
+/// Values converted per read of an array (64 KiB of bytes).
+const CHUNK_VALUES: usize = 8192;
+
+impl<'a, R: Read> Reader<'a, R> {
+    fn new(source: R, len: u64, path: &'a Path) -> Self {
+        Reader {
+            source,
+            pos: 0,
+            len,
+            path,
+        }
+    }
+    fn fill(&mut self, out: &mut [u8]) -> Result<(), CheckpointError> {
+        let end = self.pos.saturating_add(out.len() as u64);
+        match self.source.read_exact(out) {
+            Ok(()) => {
+                self.pos = end;
+                Ok(())
+            }
+            Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Err(CheckpointError::Truncated {
+                path: self.path.to_path_buf(),
+                found: self.len,
+                expected: end,
+            }),
+            Err(e) => Err(with_path(e, "cannot read", self.path).into()),
+        }
+    }
+    fn take(&mut self, n: usize) -> Result<Vec<u8>, CheckpointError> {
+        let mut bytes = vec![0; n];
+        self.fill(&mut bytes)?;
+        Ok(bytes)
+    }
+    fn skip(&mut self, n: u64) -> Result<(), CheckpointError> {
+        let skipped = io::copy(&mut (&mut self.source).take(n), &mut io::sink())
+            .map_err(|e| with_path(e, "cannot read", self.path))?;
+        if skipped < n {
             return Err(CheckpointError::Truncated {
                 path: self.path.to_path_buf(),
-                found: self.bytes.len() as u64,
-                expected: end as u64,
+                found: self.pos + skipped,
+                expected: self.pos + n,
             });
         }
-        let s = &self.bytes[self.pos..end];
-        self.pos = end;
-        Ok(s)
+        self.pos += n;
+        Ok(())
     }
     fn u32(&mut self) -> Result<u32, CheckpointError> {
-        Ok(u32::from_le_bytes(
-            self.take(4)?.try_into().expect("4 bytes"),
-        ))
+        let mut b = [0; 4];
+        self.fill(&mut b)?;
+        Ok(u32::from_le_bytes(b))
     }
     fn u64(&mut self) -> Result<u64, CheckpointError> {
-        Ok(u64::from_le_bytes(
-            self.take(8)?.try_into().expect("8 bytes"),
-        ))
+        let mut b = [0; 8];
+        self.fill(&mut b)?;
+        Ok(u64::from_le_bytes(b))
     }
     fn f64(&mut self) -> Result<f64, CheckpointError> {
         Ok(f64::from_bits(self.u64()?))
@@ -515,19 +563,30 @@ impl<'a> Reader<'a> {
     fn str(&mut self) -> Result<String, CheckpointError> {
         let n = self.u32()? as usize;
         let bytes = self.take(n)?;
-        String::from_utf8(bytes.to_vec()).map_err(|_| CheckpointError::Corrupt {
+        String::from_utf8(bytes).map_err(|_| CheckpointError::Corrupt {
             path: self.path.to_path_buf(),
             what: "a header text is not UTF-8".into(),
         })
     }
+    fn f64s(&mut self, out: &mut [f64]) -> Result<(), CheckpointError> {
+        let mut bytes = vec![0u8; 8 * out.len().min(CHUNK_VALUES)];
+        for part in out.chunks_mut(CHUNK_VALUES) {
+            let bytes = &mut bytes[..8 * part.len()];
+            self.fill(bytes)?;
+            for (x, b) in part.iter_mut().zip(bytes.chunks_exact(8)) {
+                *x = f64::from_le_bytes(b.try_into().expect("8 bytes"));
+            }
+        }
+        Ok(())
+    }
     fn vectors<const D: usize>(&mut self, out: &mut [Vector<D>]) -> Result<(), CheckpointError> {
-        let bytes = self.take(out.len() * D * 8)?;
-        for (x, chunk) in out
-            .iter_mut()
-            .flat_map(|x| x.iter_mut())
-            .zip(bytes.chunks_exact(8))
-        {
-            *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
+        let mut values = vec![0.0; (D * out.len()).min(CHUNK_VALUES)];
+        for part in out.chunks_mut((CHUNK_VALUES / D).max(1)) {
+            let values = &mut values[..D * part.len()];
+            self.f64s(values)?;
+            for (x, v) in part.iter_mut().zip(values.chunks_exact(D)) {
+                x.copy_from_slice(v);
+            }
         }
         Ok(())
     }
@@ -626,17 +685,17 @@ impl<const D: usize> Head<D> {
 /// its beginning): another program or deck, arrays of sizes other than `expected` (the
 /// predictor's may be 0 or the nodes), or a length other than they give, are refused.
 fn read_head<const D: usize>(
-    r: &mut Reader,
+    r: &mut Reader<impl Read>,
     origin: &Origin,
     expected: &Sizes,
     file_len: u64,
 ) -> Result<Head<D>, CheckpointError> {
     let path = r.path;
-    if r.take(MAGIC.len()).ok() != Some(MAGIC.as_slice()) {
+    if r.take(MAGIC.len()).ok().as_deref() != Some(MAGIC.as_slice()) {
         return Err(CheckpointError::NotCheckpoint(path.to_path_buf()));
     }
     let format = r.u32()?;
-    if format != FORMAT && format != EARLIER_FORMAT {
+    if !(EARLIER_FORMAT..=FORMAT).contains(&format) {
         return Err(CheckpointError::Format {
             path: path.to_path_buf(),
             found: format,
@@ -695,7 +754,7 @@ fn read_head<const D: usize>(
     }
     let impactors = r.u64()? as usize;
     // Format 4 has no load step in progress, nor the Gershgorin scalar.
-    let earlier = format == EARLIER_FORMAT;
+    let earlier = format == 4;
     let in_step = if earlier { 0 } else { r.u64()? };
     if in_step > 2 {
         return Err(CheckpointError::Corrupt {
@@ -712,7 +771,7 @@ fn read_head<const D: usize>(
             expected: expected.history as u64,
         });
     }
-    let arrays = (r.pos + (SCALARS - earlier as usize) * 8) as u64;
+    let arrays = r.pos + (scalars_in(format) * 8) as u64;
     let mut head = Head {
         scalars: State::empty(),
         driver: DriverState::default(),
@@ -753,6 +812,13 @@ fn read_head<const D: usize>(
     let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
     let (has_previous, previous_time) = (r.u64()? == 1, r.f64()?);
     let gershgorin = !earlier && r.u64()? == 1;
+    let spectrum = match format >= 6 {
+        true => {
+            let (measured, rho, evaluations) = (r.u64()? == 1, r.f64()?, r.u64()?);
+            measured.then_some((rho, evaluations))
+        }
+        false => None,
+    };
     if qs {
         head.driver.quasi_static = Some(QuasiStaticMemory {
             increment,
@@ -760,6 +826,7 @@ fn read_head<const D: usize>(
             iterations,
             previous: None,
             gershgorin,
+            spectrum,
             in_step: None,
         });
         head.predictor = has_previous.then_some(previous_time);
@@ -774,7 +841,7 @@ fn read_head<const D: usize>(
 
 /// The impactors' motion and penalty energy (`r` at their start).
 fn read_impactors<const D: usize>(
-    r: &mut Reader,
+    r: &mut Reader<impl Read>,
     count: usize,
 ) -> Result<Vec<ImpactorState<D>>, CheckpointError> {
     (0..count)
@@ -799,13 +866,46 @@ fn with_predictor<const D: usize>(head: &mut Head<D>, displacements: Vec<Vector<
     }
 }
 
-fn read_file(path: &Path) -> Result<Vec<u8>, CheckpointError> {
-    match std::fs::read(path) {
-        Ok(b) => Ok(b),
+/// Opens the checkpoint at `path` and its length.
+fn open(path: &Path) -> Result<(std::fs::File, u64), CheckpointError> {
+    let file = match std::fs::File::open(path) {
+        Ok(f) => f,
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
-            Err(CheckpointError::Missing(path.to_path_buf()))
+            return Err(CheckpointError::Missing(path.to_path_buf()))
         }
-        Err(e) => Err(with_path(e, "cannot read", path).into()),
+        Err(e) => return Err(with_path(e, "cannot open", path).into()),
+    };
+    let len = file
+        .metadata()
+        .map_err(|e| with_path(e, "cannot read", path))?
+        .len();
+    Ok((file, len))
+}
+
+/// Checks the checksum at the end of the checkpoint `file` of `len` bytes, reading it once
+/// in pieces; leaves the file at its start.
+fn check_sum(file: &mut std::fs::File, len: u64, path: &Path) -> Result<(), CheckpointError> {
+    use std::io::{Seek, SeekFrom};
+    let cannot = |e: io::Error| CheckpointError::from(with_path(e, "cannot read", path));
+    if len < 8 {
+        return Err(CheckpointError::NotCheckpoint(path.to_path_buf()));
+    }
+    file.seek(SeekFrom::Start(0)).map_err(cannot)?;
+    let mut hash = FNV_OFFSET;
+    let mut left = len - 8;
+    let mut chunk = vec![0u8; 1 << 22];
+    while left > 0 {
+        let n = left.min(chunk.len() as u64) as usize;
+        file.read_exact(&mut chunk[..n]).map_err(cannot)?;
+        hash = fnv1a(hash, &chunk[..n]);
+        left -= n as u64;
+    }
+    let mut tail = [0u8; 8];
+    file.read_exact(&mut tail).map_err(cannot)?;
+    file.seek(SeekFrom::Start(0)).map_err(cannot)?;
+    match u64::from_le_bytes(tail) == hash {
+        true => Ok(()),
+        false => Err(corrupt(path)),
     }
 }
 
@@ -818,24 +918,23 @@ fn corrupt(path: &Path) -> CheckpointError {
 
 /// Restores `state` (built by the same deck) and returns the driver state from the checkpoint
 /// at `path`, refusing one from another program or deck, of other sizes, truncated or corrupt.
+/// The file is read twice, in pieces (its checksum, then its arrays into `state`): never
+/// whole, so a run continues in the memory it ran in.
 pub fn restore<const D: usize>(
     path: &Path,
     origin: &Origin,
     state: &mut State<D>,
 ) -> Result<DriverState<D>, CheckpointError> {
-    let bytes = read_file(path)?;
-    let mut r = Reader {
-        bytes: &bytes,
-        pos: 0,
-        path,
-    };
+    let (mut file, len) = open(path)?;
     let expected = Sizes::of(state, &DriverState::default());
-    let mut head = read_head::<D>(&mut r, origin, &expected, bytes.len() as u64)?;
-    let body = &bytes[..bytes.len() - 8];
-    let stored = u64::from_le_bytes(bytes[body.len()..].try_into().expect("8 bytes"));
-    if fnv1a(FNV_OFFSET, body) != stored {
-        return Err(corrupt(path));
-    }
+    // The header first, so that another deck or program is named rather than a checksum.
+    let mut head = {
+        let mut r = Reader::new(io::BufReader::new(&mut file).take(HEAD_BYTES), len, path);
+        read_head::<D>(&mut r, origin, &expected, len)?
+    };
+    check_sum(&mut file, len, path)?;
+    let mut r = Reader::new(io::BufReader::with_capacity(1 << 20, file), len, path);
+    r.skip(head.arrays)?;
     state.step_scalars_from(&head.scalars);
     for a in [
         &mut state.u,
@@ -846,14 +945,15 @@ pub fn restore<const D: usize>(
     ] {
         r.vectors(a)?;
     }
-    let bond_entries = state.status.len();
-    state.status.copy_from_slice(r.take(bond_entries)?);
-    // (Nothing is copied from a record this build does not keep: `history` is empty then.)
-    let history = r.take(head.sizes.history * 8)?;
-    copy_f64s(&mut state.history, history);
+    r.fill(&mut state.status)?;
+    // A record this build does not keep is read past (`history` is empty then).
+    if head.sizes.history == state.history.len() {
+        r.f64s(&mut state.history)?;
+    } else {
+        r.skip(8 * head.sizes.history as u64)?;
+    }
     r.vectors(&mut state.previous)?;
-    let words = state.previous_matrices.len();
-    copy_f64s(&mut state.previous_matrices, r.take(words * 8)?);
+    r.f64s(&mut state.previous_matrices)?;
     let mut displacements = vec![Vector::<D>::zeros(); head.sizes.predictor];
     r.vectors(&mut displacements)?;
     with_predictor(&mut head, displacements);
@@ -869,12 +969,12 @@ pub fn restore<const D: usize>(
 
 /// The load step in progress (`r` at its start), with arrays of `state`'s sizes.
 fn read_in_step<const D: usize>(
-    r: &mut Reader,
+    r: &mut Reader<impl Read>,
     state: &State<D>,
     with_fallback_start: bool,
 ) -> Result<StepInProgress<D>, CheckpointError> {
     let n = state.u.len();
-    let vectors = |r: &mut Reader| -> Result<Vec<Vector<D>>, CheckpointError> {
+    let vectors = |r: &mut Reader<_>| -> Result<Vec<Vector<D>>, CheckpointError> {
         let mut v = vec![Vector::<D>::zeros(); n];
         r.vectors(&mut v)?;
         Ok(v)
@@ -920,30 +1020,20 @@ fn read_in_step<const D: usize>(
 
 /// A work record of `state`'s sizes.
 fn read_record<const D: usize>(
-    r: &mut Reader,
+    r: &mut Reader<impl Read>,
     state: &State<D>,
 ) -> Result<WorkRecord<D>, CheckpointError> {
     let mut history = vec![0.0; state.history.len()];
-    copy_f64s(&mut history, r.take(state.history.len() * 8)?);
+    r.f64s(&mut history)?;
     let mut previous = vec![Vector::<D>::zeros(); state.previous.len()];
     r.vectors(&mut previous)?;
     let mut previous_matrices = vec![0.0; state.previous_matrices.len()];
-    copy_f64s(
-        &mut previous_matrices,
-        r.take(state.previous_matrices.len() * 8)?,
-    );
+    r.f64s(&mut previous_matrices)?;
     Ok(WorkRecord {
         history,
         previous,
         previous_matrices,
     })
-}
-
-/// f64s from their little-endian bytes (as many as both hold).
-fn copy_f64s(out: &mut [f64], bytes: &[u8]) {
-    for (x, chunk) in out.iter_mut().zip(bytes.chunks_exact(8)) {
-        *x = f64::from_le_bytes(chunk.try_into().expect("8 bytes"));
-    }
 }
 
 /// A checkpoint read by parts, for a distributed restart: rank 0 hands each rank its part
@@ -963,55 +1053,20 @@ impl<const D: usize> Parts<D> {
     /// Opens the checkpoint at `path` of a run whose whole body's arrays have `expected`
     /// sizes.
     pub fn open(path: &Path, origin: &Origin, expected: &Sizes) -> Result<Self, CheckpointError> {
-        use std::io::{Read, Seek, SeekFrom};
-        let cannot = |e: io::Error| CheckpointError::from(with_path(e, "cannot read", path));
-        let mut file = match std::fs::File::open(path) {
-            Ok(f) => f,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => {
-                return Err(CheckpointError::Missing(path.to_path_buf()))
-            }
-            Err(e) => return Err(cannot(e)),
+        use std::io::{Seek, SeekFrom};
+        let (mut file, len) = open(path)?;
+        let mut head = {
+            let mut r = Reader::new(io::BufReader::new(&mut file).take(HEAD_BYTES), len, path);
+            read_head::<D>(&mut r, origin, expected, len)?
         };
-        let len = file.metadata().map_err(cannot)?.len();
-        let mut prefix = Vec::new();
-        (&mut file)
-            .take(len.min(HEAD_BYTES))
-            .read_to_end(&mut prefix)
-            .map_err(cannot)?;
-        let mut r = Reader {
-            bytes: &prefix,
-            pos: 0,
-            path,
-        };
-        let mut head = read_head::<D>(&mut r, origin, expected, len)?;
         if head.in_step != 0 {
             return Err(CheckpointError::InsideLoadStep(path.to_path_buf()));
         }
-        // The checksum, streamed over everything before it.
-        file.seek(SeekFrom::Start(0)).map_err(cannot)?;
-        let mut hash = FNV_OFFSET;
-        let mut left = len - 8;
-        let mut chunk = vec![0u8; 1 << 22];
-        while left > 0 {
-            let n = left.min(chunk.len() as u64) as usize;
-            file.read_exact(&mut chunk[..n]).map_err(cannot)?;
-            hash = fnv1a(hash, &chunk[..n]);
-            left -= n as u64;
-        }
-        let mut tail = vec![0u8; 8];
-        file.read_exact(&mut tail).map_err(cannot)?;
-        if u64::from_le_bytes(tail.try_into().expect("8 bytes")) != hash {
-            return Err(corrupt(path));
-        }
+        check_sum(&mut file, len, path)?;
         let start = head.impactors_start();
-        let mut impactors = vec![0u8; (len - 8 - start) as usize];
-        file.seek(SeekFrom::Start(start)).map_err(cannot)?;
-        file.read_exact(&mut impactors).map_err(cannot)?;
-        let mut r = Reader {
-            bytes: &impactors,
-            pos: 0,
-            path,
-        };
+        file.seek(SeekFrom::Start(start))
+            .map_err(|e| with_path(e, "cannot read", path))?;
+        let mut r = Reader::new(io::BufReader::new(&mut file), len, path);
         head.driver.impactors = read_impactors(&mut r, head.impactors)?;
         Ok(Parts { file, head })
     }
@@ -1133,6 +1188,7 @@ mod tests {
                 previous: Some((0.2, vectors(9.0))),
                 iterations: 4000,
                 gershgorin: true,
+                spectrum: None,
                 in_step: Some(Box::new(in_step)),
             }),
             ..DriverState::default()
@@ -1163,40 +1219,54 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// A checkpoint of format 4 (before load steps could pause: no word for a load step in
-    /// progress in the header, no Gershgorin scalar) continues: a run in progress survives the
-    /// upgrade.
+    /// Checkpoints of formats 4 (before load steps could pause: no word for a load step in
+    /// progress in the header, no Gershgorin scalar) and 5 (before the spectral radius was
+    /// kept) continue: a run in progress survives the upgrade, and measures its spectrum
+    /// again.
     #[test]
-    fn a_checkpoint_of_format_4_continues() {
+    fn checkpoints_of_formats_4_and_5_continue() {
         let dir = std::env::temp_dir().join(format!("peridyn-format-4-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(FILE_NAME);
         let origin = Origin::new("deck", Path::new("deck.toml"));
         let saved = state(1);
-        let driver = DriverState {
+        let mut driver = DriverState {
             quasi_static: Some(QuasiStaticMemory {
                 increment: 0.1,
                 largest_load: 9.0,
                 previous: None,
                 iterations: 4000,
                 gershgorin: false,
+                spectrum: Some((3.5, 12)),
                 in_step: None,
             }),
             ..DriverState::default()
         };
         write(&path, &origin, &saved, &driver).unwrap();
-        // The same checkpoint as format 4 wrote it.
-        let mut bytes = std::fs::read(&path).unwrap();
-        let sizes = 8 + 4 + (4 + origin.version.len()) + (4 + origin.deck_file.len()) + 8;
-        let gershgorin = sizes + 9 * 8 + 20 * 8;
-        bytes.drain(gershgorin..gershgorin + 8);
-        bytes.drain(sizes + 8 * 8..sizes + 9 * 8);
-        bytes[8..12].copy_from_slice(&EARLIER_FORMAT.to_le_bytes());
-        let body = bytes.len() - 8;
-        let hash = fnv1a(FNV_OFFSET, &bytes[..body]);
-        bytes[body..].copy_from_slice(&hash.to_le_bytes());
-        std::fs::write(&path, &bytes).unwrap();
         let mut now = state(1);
+        assert_eq!(restore(&path, &origin, &mut now).unwrap(), driver);
+        let written = std::fs::read(&path).unwrap();
+        let sizes = 8 + 4 + (4 + origin.version.len()) + (4 + origin.deck_file.len()) + 8;
+        let scalar = |k: usize| sizes + 9 * 8 + k * 8;
+        let rewrite = |bytes: &mut Vec<u8>, format: u32| {
+            bytes[8..12].copy_from_slice(&format.to_le_bytes());
+            let body = bytes.len() - 8;
+            let hash = fnv1a(FNV_OFFSET, &bytes[..body]);
+            bytes[body..].copy_from_slice(&hash.to_le_bytes());
+            std::fs::write(&path, &bytes).unwrap();
+        };
+        // The same checkpoint as format 5 wrote it: no spectrum.
+        let mut bytes = written.clone();
+        bytes.drain(scalar(21)..scalar(24));
+        rewrite(&mut bytes, 5);
+        driver.quasi_static.as_mut().unwrap().spectrum = None;
+        now.u.fill(Vector::zeros());
+        assert_eq!(restore(&path, &origin, &mut now).unwrap(), driver);
+        assert!(now.u == saved.u && now.history == saved.history && now.time == saved.time);
+        // As format 4 wrote it: nor the Gershgorin scalar, nor the load step's header word.
+        bytes.drain(scalar(20)..scalar(21));
+        bytes.drain(sizes + 8 * 8..sizes + 9 * 8);
+        rewrite(&mut bytes, 4);
         now.u.fill(Vector::zeros());
         assert_eq!(restore(&path, &origin, &mut now).unwrap(), driver);
         assert!(now.u == saved.u && now.history == saved.history && now.time == saved.time);

@@ -44,9 +44,10 @@ const fn impactor_words(d: usize) -> usize {
 
 /// The quasi-static solver's scalars after them: whether it has a memory, its increment,
 /// largest load and iterations, whether it has a predictor's point, that point's time (its
-/// displacements, D words per owned node, follow the node vectors), and whether Gershgorin's
-/// masses replaced the spectral ones.
-const QUASI_STATIC: usize = 7;
+/// displacements, D words per owned node, follow the node vectors), whether Gershgorin's
+/// masses replaced the spectral ones, and whether the spectral radius was measured, its value
+/// and the force evaluations it took.
+const QUASI_STATIC: usize = 10;
 
 /// With `control.restart`, restores every rank's share of the checkpoint in `out` into
 /// `sim` (a distributed run's) and returns the driver state, on every rank. Every rank calls
@@ -217,6 +218,9 @@ fn part_of<const D: usize>(
         predictor.is_some() as u8 as f64,
         predictor.unwrap_or(0.0),
         qs.is_some_and(|m| m.gershgorin) as u8 as f64,
+        qs.is_some_and(|m| m.spectrum.is_some()) as u8 as f64,
+        qs.and_then(|m| m.spectrum).map_or(0.0, |s| s.0),
+        f64::from_bits(qs.and_then(|m| m.spectrum).map_or(0, |s| s.1)),
     ]);
     for im in &driver.impactors {
         for x in [&im.position, &im.velocity, &im.force] {
@@ -319,6 +323,7 @@ fn unpack<const D: usize>(part: &[f64], state: &mut State<D>, owned: usize) -> D
                 (qs[5], u.map(Vector::<D>::from_column_slice).collect())
             }),
             gershgorin: qs[6] == 1.0,
+            spectrum: (qs[7] == 1.0).then_some((qs[8], qs[9].to_bits())),
             in_step: None,
         });
     }
@@ -460,6 +465,7 @@ mod tests {
                 previous: Some((9e-7, previous.clone())),
                 iterations: 4321,
                 gershgorin: true,
+                spectrum: Some((2.75, 31)),
                 in_step: None,
             }),
             ..DriverState::default()

@@ -456,8 +456,9 @@ impl<const D: usize> Loop<D> {
                 // pause inside it when a checkpoint falls due.
                 solver.pause = watch.pause_at().map(Pause::At);
                 if solver.advance_or_pause(sim, target)? == Advanced::Paused {
-                    let memory = Some(solver.memory());
-                    watch.checkpoint_inside_step(sim, memory)?;
+                    let (memory, written) = watch.checkpoint_inside_step(sim, solver.lend_memory());
+                    solver.take_back(memory.in_step);
+                    written?;
                     continue;
                 }
                 sim.check_finite()?;
@@ -628,13 +629,29 @@ impl<'a, const D: usize> Watch<'a, D> {
         self.source.is_none().then(|| wall.last + wall.every)
     }
 
-    /// Writes the checkpoint of a load step paused inside (`quasi_static`: the solver's
-    /// memory, which holds it), after the observers' files: they end at the last committed
-    /// step, where a continued run's observers continue.
+    /// Writes the checkpoint of a load step paused inside (`memory`: the solver's, with the
+    /// step lent to it, handed back whatever the writing gives), after the observers' files:
+    /// they end at the last committed step, where a continued run's observers continue.
     fn checkpoint_inside_step<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
-        quasi_static: Option<QuasiStaticMemory<D>>,
+        memory: QuasiStaticMemory<D>,
+    ) -> (QuasiStaticMemory<D>, Result<(), RunError>) {
+        let solver = DriverState {
+            quasi_static: Some(memory),
+            ..DriverState::default()
+        };
+        let driver = self.at.driver_state(sim, solver);
+        let written = self.write_inside_step(sim, &driver);
+        let memory = driver.quasi_static.expect("the memory just lent");
+        (memory, written)
+    }
+
+    /// `checkpoint_inside_step`'s writing, with the solver's memory lent to `driver`.
+    fn write_inside_step<M: Material<D>>(
+        &mut self,
+        sim: &mut Simulation<D, M>,
+        driver: &DriverState<D>,
     ) -> Result<(), RunError> {
         let Some(c) = self.checkpoints.as_mut() else {
             return Ok(());
@@ -643,12 +660,7 @@ impl<'a, const D: usize> Watch<'a, D> {
         for o in self.observers.iter_mut() {
             o.flush()?;
         }
-        let solver = DriverState {
-            quasi_static,
-            ..DriverState::default()
-        };
-        let driver = self.at.driver_state(sim, solver);
-        c.write(&sim.state, &driver)?;
+        c.write(&sim.state, driver)?;
         if let Some(w) = c.wall.as_mut() {
             w.last = Instant::now();
         }

@@ -26,6 +26,11 @@ pub struct QuasiStaticMemory<const D: usize> {
     /// A relaxation with the spectral masses failed earlier in the run: Gershgorin's masses
     /// stay in use (a continued run must not measure the spectrum again).
     pub gershgorin: bool,
+    /// The spectral radius the masses were scaled by and the force evaluations it took, once
+    /// measured: a continued run scales them alike instead of measuring again (which needs a
+    /// fresh copy of the bonds' state beside the paused step's records). `None` before, and
+    /// from a checkpoint of format 5 or earlier (measured again then: the same number).
+    pub spectrum: Option<(f64, u64)>,
     /// The load step in progress, when the solver paused inside it.
     pub in_step: Option<Box<StepInProgress<D>>>,
 }

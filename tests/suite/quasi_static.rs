@@ -348,6 +348,36 @@ fn crack_run(settings: QuasiStaticSettings, load_steps: u64) -> (Vec<(f64, u64)>
     (curve, solver.iterations)
 }
 
+/// A solver continued from a checkpoint's memory scales Gershgorin's masses by the spectral
+/// radius the memory keeps instead of measuring it again (which needs a fresh copy of the
+/// bonds' state beside a paused step's work records): it spends no force evaluation on it
+/// and takes the next load step exactly as the solver that measured it.
+#[test]
+fn a_continued_solver_keeps_the_measured_spectrum() {
+    let ld = notched_deck(4);
+    let (mut sim, _) = common::pmb_deck_simulation(&ld).unwrap();
+    let mut solver = QuasiStatic::new(&sim, QuasiStaticSettings::default(), 0.25);
+    solver.advance(&mut sim, 0.25).unwrap();
+    let (rho, measured) = (solver.spectral_radius, solver.setup_evaluations);
+    assert!(
+        rho > 0.1 && rho < 4.0 && measured > 0,
+        "ρ = {rho}, {measured} evaluations"
+    );
+    let memory = solver.memory();
+    assert_eq!(memory.spectrum, Some((rho, measured)));
+    let mut continued = QuasiStatic::new(&sim, QuasiStaticSettings::default(), 0.25);
+    continued.resume(memory);
+    assert_eq!(continued.setup_evaluations, measured);
+    let mut sim_continued = common::pmb_deck_simulation(&ld).unwrap().0;
+    sim_continued.state = sim.state.clone();
+    let whole = solver.advance(&mut sim, 0.5).unwrap();
+    let resumed = continued.advance(&mut sim_continued, 0.5).unwrap();
+    assert_eq!(continued.setup_evaluations, measured, "measured again");
+    assert_eq!(continued.spectral_radius, rho);
+    assert_eq!(resumed.iterations, whole.iterations);
+    assert!(sim_continued.state.u == sim.state.u);
+}
+
 /// The faster relaxations (ADR's spectral masses, NCG's shorter line search) trace the same
 /// fracture as the previous ones (Gershgorin's masses, the line search to 10⁻⁶): the same
 /// committed steps, the same bond halves broken after each, and reactions that differ by
