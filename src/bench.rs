@@ -39,9 +39,11 @@ pub struct BenchResult {
 /// deck's defaults, "-idle" with no node near another, "-dense" every bond broken and the
 /// block compressed so every node touches its nearest neighbours, else a crack across the
 /// block whose faces are pressed together, `arrange`; "-fragments": the dense arrangement
-/// without contact, the baseline that isolates the contact pass's own cost).
-pub const CASES: [&str; 22] = [
+/// without contact, the baseline that isolates the contact pass's own cost; "-corrected": the
+/// energy surface correction, a micromodulus per node).
+pub const CASES: [&str; 24] = [
     "pmb-2d",
+    "pmb-corrected-2d",
     "lps-2d",
     "correspondence-2d",
     "pmb-bilinear-2d",
@@ -51,6 +53,7 @@ pub const CASES: [&str; 22] = [
     "pmb-dh-2d",
     "mixed-2d",
     "pmb-3d",
+    "pmb-corrected-3d",
     "lps-3d",
     "correspondence-3d",
     "pmb-bilinear-3d",
@@ -289,6 +292,19 @@ fn case<const D: usize>(name: &str, target: usize, steps: u64, threads: usize) -
                 arrange(sim, touching);
             };
             measure_with(name, model, (pmb::<D>(), stretch()), steps, threads, setup)
+        }
+        _ if name.contains("-corrected") => {
+            use crate::material::surface_correction::{
+                corrected, surface_factors, SurfaceCorrection,
+            };
+            let (body, bonds, rule) = &model;
+            let quad = crate::bonds::Quadrature::for_body(*rule, body, bonds);
+            let method = SurfaceCorrection::Energy;
+            let factors = surface_factors(method, body, bonds, &quad, &pmb::<D>(), None)
+                .expect("one-pass factors")
+                .expect("a method");
+            let m = corrected(pmb::<D>(), &factors.factors);
+            measure(name, model, m, stretch(), steps, threads)
         }
         _ => {
             let horizons = model.0.horizons.clone();

@@ -48,8 +48,9 @@ impl PartialVolume {
 }
 
 /// Per-node data the bond loop needs to weight a neighbour, packed together so one cache
-/// line serves the whole lookup.
+/// line serves the whole lookup (in this order: `simd_nodes` loads it as four f64).
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 pub struct NodeWeight {
     pub volume: f64,
     pub half_cell: f64,

@@ -58,6 +58,13 @@ impl DamageLaw for CriticalStretch {
     fn uniform_critical_stretch(&self) -> Option<f64> {
         self.s0.uniform()
     }
+
+    fn critical_stretch_per_node(&self) -> Option<&[f64]> {
+        match &self.s0 {
+            PerNode::Varying(s0) => Some(s0),
+            PerNode::Uniform(_) => None,
+        }
+    }
 }
 
 /// A critical-stretch law with one s0 for every node: both halves break together, as one

@@ -158,6 +158,12 @@ pub trait DamageLaw: Sync + Send {
         None
     }
 
+    /// The critical stretch of every node, if this is a critical-stretch law with one per
+    /// node (each half of a bond breaks on its own node's: the per-node kernel's law).
+    fn critical_stretch_per_node(&self) -> Option<&[f64]> {
+        None
+    }
+
     /// The law, if this is a softening law with one parameter set for every node (the PMB
     /// AVX2 kernel implements it too).
     fn uniform_softening(&self) -> Option<softening::UniformSoftening> {

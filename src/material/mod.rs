@@ -19,6 +19,7 @@ pub mod simd;
 pub mod simd_correspondence;
 pub mod simd_damage;
 pub mod simd_energy;
+pub mod simd_nodes;
 pub mod stabilisation_memo;
 pub mod surface_correction;
 
@@ -339,6 +340,20 @@ pub trait Material<const D: usize>: Sync + Send {
         _nb: &mut NodeBonds,
         _w: &UniformWeights,
         _points: &[Self::Point],
+    ) -> Option<([f64; 3], u64)> {
+        None
+    }
+
+    /// Optional AVX2 force pass of one node on a grid whose nodes differ (their cells,
+    /// horizons and critical stretches in `nodes`), under a critical stretch, for a model
+    /// without a pre-pass: as `vector_force`.
+    ///
+    /// # Safety
+    /// As for `vector_prepass`; `nodes` covers every neighbour index.
+    unsafe fn vector_force_nodes(
+        &self,
+        _nb: &mut NodeBonds,
+        _nodes: &simd_nodes::NodeConstants,
     ) -> Option<([f64; 3], u64)> {
         None
     }

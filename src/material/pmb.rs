@@ -2,6 +2,7 @@
 //! constant or conical micromodulus and irreversible critical-stretch failure.
 
 use super::simd::{self, NodeBonds};
+use super::simd_nodes;
 #[cfg(target_arch = "x86_64")]
 use super::{simd_damage, simd_energy};
 use super::{BondGeom, Dimensionality, Elasticity, Material};
@@ -319,14 +320,42 @@ impl<const D: usize> Material<D> for Pmb {
         if self.coupling == HorizonCoupling::Traditional {
             return None;
         }
-        let c0 = self.c0.uniform()?;
-        let law = simd::PmbLaw {
+        let law = |c0| simd::PmbLaw {
             c0,
             horizon: self.horizon,
             conical: self.profile == MicromodulusProfile::Conical,
         };
-        // SAFETY: forwarded from the caller.
-        Some(unsafe { kernel(nb, &law, w) })
+        match &self.c0 {
+            // SAFETY: forwarded from the caller.
+            PerNode::Uniform(c0) => Some(unsafe { kernel(nb, &law(*c0), w) }),
+            // A micromodulus per node on one horizon (a surface correction): one critical
+            // stretch only; per-node horizons never reach here (their weights vary).
+            PerNode::Varying(c0) => {
+                let one_law = nb.softening.is_none() && nb.work.is_none();
+                (one_law && self.horizons.uniform() == Some(self.horizon)).then(|| {
+                    // SAFETY: forwarded from the caller; `c0` covers every node (and ghost).
+                    unsafe { simd::pmb_force_per_node(nb, &law(0.0), w, c0) }
+                })
+            }
+        }
+    }
+
+    unsafe fn vector_force_nodes(
+        &self,
+        nb: &mut NodeBonds,
+        nodes: &simd_nodes::NodeConstants,
+    ) -> Option<([f64; 3], u64)> {
+        if self.coupling == HorizonCoupling::Traditional {
+            return None;
+        }
+        let pmb = simd_nodes::PmbNodes {
+            c0: &self.c0,
+            horizons: &self.horizons,
+            horizon: self.horizon,
+            conical: self.profile == MicromodulusProfile::Conical,
+        };
+        // SAFETY: forwarded from the caller; a per-node c0 covers every node and ghost.
+        Some(unsafe { simd_nodes::pmb_force(nb, &pmb, nodes) })
     }
 
     fn elasticity(&self) -> Elasticity {

@@ -258,6 +258,31 @@ impl PmbLaw {
     pub(crate) fn coefficient(&self, w: &UniformWeights, l: f64, len: f64) -> f64 {
         self.per_length(l, len, w.phi(l)) * w.node.volume
     }
+
+    /// The profile g(|ξ|) of c(ξ) = c0 g (1, or 1 − |ξ|/δ).
+    #[inline(always)]
+    fn profile(&self, l: f64) -> f64 {
+        if self.conical {
+            (1.0 - l / self.horizon).max(0.0)
+        } else {
+            1.0
+        }
+    }
+
+    /// `coefficient` with the micromodulus of each end, c0_i and c0_j: ½(c_i pm + c_j pm)
+    /// (|y| − |ξ|) / (|ξ||y|) V, the generic loop's `Pmb::pair_weight` for a varying c0.
+    #[inline(always)]
+    pub(crate) fn coefficient_per_node(
+        &self,
+        w: &UniformWeights,
+        (c0_i, c0_j): (f64, f64),
+        l: f64,
+        len: f64,
+    ) -> f64 {
+        let (g, pm) = (self.profile(l), w.phi(l));
+        let weight = 0.5 * (c0_i * g * pm + c0_j * g * pm);
+        weight * (len - l) / (l * len) * w.node.volume
+    }
 }
 
 impl LpsLaw {
@@ -296,6 +321,31 @@ pub unsafe fn pmb_force(nb: &mut NodeBonds, law: &PmbLaw, w: &UniformWeights) ->
             avx::pmb_force::<2>(nb, law, w)
         } else {
             avx::pmb_force::<3>(nb, law, w)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("available() is false off x86-64")
+}
+
+/// `pmb_force` with a micromodulus per node, `c0[k]` of node k (a surface correction's
+/// factors on a uniform grid, seed 000 Eq. 11): each bond's weight is ½(c_i + c_j)φ, in the
+/// generic `Pmb::pair_weight`'s arithmetic.
+///
+/// # Safety
+/// As for `pmb_force`; `c0` has an entry for every neighbour index.
+pub unsafe fn pmb_force_per_node(
+    nb: &mut NodeBonds,
+    law: &PmbLaw,
+    w: &UniformWeights,
+    c0: &[f64],
+) -> ([f64; 3], u64) {
+    debug_assert!(nb.softening.is_none() && nb.work.is_none());
+    #[cfg(target_arch = "x86_64")]
+    {
+        if nb.dim == 2 {
+            avx::pmb_force_per_node::<2>(nb, law, w, c0)
+        } else {
+            avx::pmb_force_per_node::<3>(nb, law, w, c0)
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -574,6 +624,76 @@ pub(crate) mod avx {
             }
         });
         (f, broke)
+    }
+
+    /// PMB with a micromodulus per node under one critical stretch in dimension D.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn pmb_force_per_node<const D: usize>(
+        nb: &mut NodeBonds,
+        law: &PmbLaw,
+        w: &UniformWeights,
+        c0: &[f64],
+    ) -> ([f64; 3], u64) {
+        debug_assert_eq!(nb.dim, D);
+        let yi = own_position(nb);
+        let c0_i = _mm256_set1_pd(c0[nb.i]);
+        let volume = _mm256_set1_pd(w.node.volume);
+        let mut acc = [_mm256_setzero_pd(); 3];
+        let mut broke = 0;
+        let mut b = 0;
+        while b + 4 <= nb.neighbors.len() {
+            prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
+            let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi);
+            let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
+            let keep = fail_and_keep(nb, b, len, l, &mut broke);
+            let j = |lane: usize| nb.neighbors[b + lane] as usize;
+            let c0_j = _mm256_set_pd(c0[j(3)], c0[j(2)], c0[j(1)], c0[j(0)]);
+            let g = pmb_profile(law, l);
+            let pm = phi(w, l);
+            // ½(c_i φ + c_j φ), c = c0 g: `Pmb::pair_weight`'s order.
+            let weight = _mm256_mul_pd(
+                _mm256_set1_pd(0.5),
+                _mm256_add_pd(
+                    _mm256_mul_pd(_mm256_mul_pd(c0_i, g), pm),
+                    _mm256_mul_pd(_mm256_mul_pd(c0_j, g), pm),
+                ),
+            );
+            let per_length = _mm256_div_pd(
+                _mm256_mul_pd(weight, _mm256_sub_pd(len, l)),
+                _mm256_mul_pd(l, len),
+            );
+            add_force(
+                &mut acc,
+                _mm256_mul_pd(per_length, volume),
+                keep,
+                [dx, dy, dz],
+            );
+            b += 4;
+        }
+        let mut f = [sum(acc[0]), sum(acc[1]), sum(acc[2])];
+        let c0_i = c0[nb.i];
+        broke += tail(nb, b, |_, j, l, d, len| {
+            let coef = law.coefficient_per_node(w, (c0_i, c0[j]), l, len);
+            for a in 0..3 {
+                f[a] += coef * d[a];
+            }
+        });
+        (f, broke)
+    }
+
+    /// `PmbLaw::profile` on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn pmb_profile(law: &PmbLaw, l: __m256d) -> __m256d {
+        if law.conical {
+            let one_minus = _mm256_sub_pd(
+                _mm256_set1_pd(1.0),
+                _mm256_div_pd(l, _mm256_set1_pd(law.horizon)),
+            );
+            _mm256_max_pd(one_minus, _mm256_setzero_pd())
+        } else {
+            _mm256_set1_pd(1.0)
+        }
     }
 
     /// `PmbLaw::per_length` on four lanes, in its arithmetic: c(ξ) ½(pm + pm)(|y| − |ξ|) /

@@ -10,7 +10,7 @@ use super::cross_bonds::{CrossBonds, RemoteWords};
 use super::dissipation::DissipationTracker;
 use super::ranks::{ordered_sum, Share};
 use crate::body::Body;
-use crate::bonds::partial_volume::UniformWeights;
+use crate::bonds::partial_volume::{NodeWeight, UniformWeights};
 use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::damage::critical_stretch::UniformCriticalStretch;
 use crate::damage::mixed::MixedLaws;
@@ -18,6 +18,7 @@ use crate::damage::{
     BondForce, Damage, DamageLaw, MixedDamage, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN,
 };
 use crate::material::simd::{self, NodeBonds};
+use crate::material::simd_nodes::{CriticalStretches, NodeConstants};
 use crate::material::{BondGeom, Material, PointError};
 use crate::math::{to3, Vector};
 use crate::state::State;
@@ -62,6 +63,12 @@ pub struct ForceEngine<const D: usize, M: Material<D>> {
 trait Weights: Sync {
     /// (φ_ij, φ_ji, V_j) of bond b = i→j of reference length `ref_len`.
     fn weights(&self, b: usize, i: usize, j: usize, ref_len: f64) -> (f64, f64, f64);
+
+    /// The rule and every node's cell, when the weights come from them alone (not from a
+    /// constant, not from stored fractions): what the per-node kernels gather.
+    fn node_weights(&self) -> Option<(PartialVolume, &[NodeWeight])> {
+        None
+    }
 }
 
 impl Weights for Quadrature {
@@ -69,6 +76,10 @@ impl Weights for Quadrature {
     fn weights(&self, b: usize, i: usize, j: usize, ref_len: f64) -> (f64, f64, f64) {
         let (phi_ij, phi_ji) = self.phi_pair(b, i, j, ref_len);
         (phi_ij, phi_ji, self.nodes[j].volume)
+    }
+
+    fn node_weights(&self) -> Option<(PartialVolume, &[NodeWeight])> {
+        (self.rule != PartialVolume::Exact).then_some((self.rule, &self.nodes[..]))
     }
 }
 
@@ -505,6 +516,26 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
         } else {
             None
         };
+        // On a grid whose nodes differ, PMB's per-node kernel (`simd_nodes`) under a critical
+        // stretch, one or per node; a model with a pre-pass keeps the generic loop.
+        let nodes_kernel = weights
+            .node_weights()
+            .filter(|_| {
+                vector.is_none()
+                    && !M::NEEDS_PREPASS
+                    && hw == 0
+                    && self.vector_kernels
+                    && self.neighbors_in_bounds
+                    && simd::available()
+            })
+            .and_then(|(rule, nodes)| {
+                let s0 = match (s0, damage.critical_stretch_per_node()) {
+                    (Some(s0), _) => CriticalStretches::Uniform(s0),
+                    (None, Some(s0)) => CriticalStretches::PerNode(s0),
+                    (None, None) => return None,
+                };
+                Some(NodeConstants { rule, nodes, s0 })
+            });
         let s0 = s0.unwrap_or(f64::INFINITY);
         // The current positions as one flat x, y, z array.
         assert_eq!(
@@ -660,6 +691,17 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     // SAFETY: AVX2 is available and neighbour indices are in bounds.
                     if let Some((f, nb_broken)) =
                         unsafe { material.vector_force(&mut nb, w, points) }
+                    {
+                        forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
+                        broke += nb_broken;
+                        continue;
+                    }
+                }
+                if let Some(g) = &nodes_kernel {
+                    let mut nb = NodeBonds::of(i, flat, bonds, status, no_fail, None)
+                        .under(D, None, None, history);
+                    // SAFETY: AVX2 is available and neighbour indices are in bounds.
+                    if let Some((f, nb_broken)) = unsafe { material.vector_force_nodes(&mut nb, g) }
                     {
                         forces[k] = Vector::<D>::from_fn(|a, _| f[a]);
                         broke += nb_broken;

@@ -33,13 +33,26 @@ type Run<const D: usize> = (Vec<Vector<D>>, Vec<u8>, Vec<f64>, usize);
 struct Loading {
     ramp: &'static [f64],
     no_fail: bool,
+    grid: Grid,
 }
 
 /// Two evaluations of the full field (the second sees the bonds broken by the first).
 const TWICE: Loading = Loading {
     ramp: &[1.0, 1.0],
     no_fail: false,
+    grid: Grid::Uniform,
 };
+
+/// The lattice's nodes: all alike, or differing as the per-node kernel's grids do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Grid {
+    Uniform,
+    /// The right half with twice the horizon (dual-horizon PD, seed 003).
+    DualHorizon,
+    /// Cells of volumes from 0.6 to 1.4 of the lattice's at random, one horizon (as NB-NUG's
+    /// and free meshes' cells differ).
+    Cells,
+}
 
 /// The same as `compare` under any damage law; also compares the bond histories, and checks
 /// that the vector run is bitwise the same on 1 and 2 threads.
@@ -94,7 +107,7 @@ fn compare_loaded<const D: usize, M: Material<D> + Clone>(
     );
     // Both entries of a bond agree, in either loop: the halves' broken bits mirrored, the
     // same work (and the pair force negated) in their records.
-    let (_, bonds) = test_lattice::<D>(rule);
+    let (_, bonds) = test_grid::<D>(rule, loading.grid);
     let split = damage.splits_work(peridyn::solver::bond_force::<D, M>());
     for (label, (_, status, history, _)) in [("vector", &runs[0]), ("generic", &runs[2])] {
         mirrored(&format!("{name} ({label})"), &bonds, status, history, split);
@@ -197,6 +210,30 @@ fn test_lattice<const D: usize>(
     lattice_body::<D>(if D == 3 { 9 } else { 17 }, 1e-3, 3.0, rule)
 }
 
+/// `test_lattice` with its nodes made to differ as `grid` says, its bonds searched again.
+fn test_grid<const D: usize>(
+    rule: PartialVolume,
+    grid: Grid,
+) -> (peridyn::body::Body<D>, peridyn::bonds::Bonds) {
+    let (mut body, bonds) = test_lattice::<D>(rule);
+    if grid == Grid::Uniform {
+        return (body, bonds);
+    }
+    let side = body.positions.iter().map(|p| p[0]).fold(0.0, f64::max);
+    for i in 0..body.len() {
+        match grid {
+            Grid::DualHorizon if body.positions[i][0] > 0.5 * side => body.horizons[i] = 6e-3,
+            Grid::Cells => {
+                body.volumes[i] *= 1.0 + 0.4 * noise(5 * i + 3);
+                body.cell_sizes[i] = body.volumes[i].powf(1.0 / D as f64);
+            }
+            _ => {}
+        }
+    }
+    let bonds = peridyn::bonds::search::build_bonds(&body, rule, &[]);
+    (body, bonds)
+}
+
 fn run<const D: usize, M: Material<D> + Clone>(
     material: &M,
     damage: Damage,
@@ -205,7 +242,7 @@ fn run<const D: usize, M: Material<D> + Clone>(
     loading: Loading,
 ) -> Run<D> {
     {
-        let (mut body, bonds) = test_lattice::<D>(rule);
+        let (mut body, bonds) = test_grid::<D>(rule, loading.grid);
         if loading.no_fail {
             for i in 0..body.len() {
                 body.no_fail[i] = body.positions[i][0] < 2e-3;
@@ -472,6 +509,94 @@ fn vector_kernels_match_the_generic_loop_in_2d() {
     }
 }
 
+/// PMB with a micromodulus per node on one horizon (a surface correction's factors, seed 000
+/// Eq. 11: here from 0.7 to 1.3 of c0 at random) runs its own kernel, in 3D and 2D, with
+/// either profile and partial-volume rule, and matches the generic loop.
+#[test]
+fn pmb_kernel_with_a_micromodulus_per_node_matches_the_generic_loop() {
+    fn cases<const D: usize>(dim: Dimensionality)
+    where
+        peridyn::material::Pmb: Material<D>,
+    {
+        let nodes = test_lattice::<D>(PartialVolume::Hhb).0.len();
+        for rule in [PartialVolume::Hhb, PartialVolume::None] {
+            for profile in [MicromodulusProfile::Constant, MicromodulusProfile::Conical] {
+                let mut m = pmb(dim, 70e9, 3e-3, profile);
+                let c0 = m.c0.at(0);
+                m.c0 = PerNode::from_values(
+                    (0..nodes)
+                        .map(|i| c0 * (1.0 + 0.3 * noise(7 * i + 1)))
+                        .collect(),
+                );
+                let name = format!("pmb per-node c0 {profile:?} {rule:?} {D}D");
+                let stretch = CriticalStretch::new(1e-3).into();
+                let seen = compare_loaded::<D, _>(&name, m, stretch, rule, TWICE);
+                assert!(seen.kernel_ran, "{name}: no kernel ran");
+            }
+        }
+    }
+    cases::<3>(Dimensionality::ThreeD);
+    cases::<2>(Dimensionality::PlaneStress);
+}
+
+/// PMB on grids whose nodes differ runs the per-node kernel and matches the generic loop:
+/// dual horizons (a horizon, a recalibrated micromodulus and a critical stretch per node, each
+/// half breaking on its own: seed 003) and cells of differing volumes (NB-NUG, free meshes),
+/// with and without a surface correction's per-node micromodulus, both profiles and rules,
+/// with nodes that may not fail, in 3D and 2D.
+#[test]
+fn pmb_kernel_on_grids_of_differing_nodes_matches_the_generic_loop() {
+    fn cases<const D: usize>(dim: Dimensionality)
+    where
+        peridyn::material::Pmb: Material<D>,
+    {
+        for grid in [Grid::DualHorizon, Grid::Cells] {
+            for rule in [PartialVolume::Hhb, PartialVolume::None] {
+                let (body, _) = test_grid::<D>(rule, grid);
+                let right = |i: usize| body.horizons[i] > 3e-3;
+                for profile in [MicromodulusProfile::Constant, MicromodulusProfile::Conical] {
+                    for corrected in [false, true] {
+                        let mut m = pmb(dim, 70e9, 3e-3, profile).with_horizons(&body.horizons);
+                        if corrected {
+                            let c0: Vec<f64> = (0..body.len())
+                                .map(|i| m.c0.at(i) * (1.0 + 0.3 * noise(7 * i + 1)))
+                                .collect();
+                            m.c0 = PerNode::from_values(c0);
+                        }
+                        // Each node's s0 from its own horizon (s0 ∝ δ^-1/2), as a deck's.
+                        let s0 = (0..body.len())
+                            .map(|i| if right(i) { 0.7e-3 } else { 1e-3 })
+                            .collect();
+                        let damage: Damage = CriticalStretch {
+                            s0: PerNode::from_values(s0),
+                        }
+                        .into();
+                        let name =
+                            format!("pmb {grid:?} {profile:?} {rule:?} corrected {corrected} {D}D");
+                        for no_fail in [false, true] {
+                            let loading = Loading {
+                                ramp: &[0.6, 1.0],
+                                no_fail,
+                                grid,
+                            };
+                            let seen = compare_loaded::<D, _>(
+                                &name,
+                                m.clone(),
+                                damage.clone(),
+                                rule,
+                                loading,
+                            );
+                            assert!(seen.kernel_ran, "{name}: no kernel ran");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    cases::<3>(Dimensionality::ThreeD);
+    cases::<2>(Dimensionality::PlaneStress);
+}
+
 /// Wan's and Silling's zero-energy control and none, with a name.
 fn correspondence_controls() -> [(
     &'static str,
@@ -608,6 +733,7 @@ fn energy_case_g0<const D: usize, M: Material<D> + Clone>(
     let loading = Loading {
         ramp: &[0.4, 0.7, 1.0],
         no_fail: true,
+        grid: Grid::Uniform,
     };
     let damage: Damage = law.into();
     // A model with history words under this law must have them written by a kernel too.
