@@ -686,14 +686,18 @@ pub(crate) mod avx {
     #[inline]
     unsafe fn pmb_profile(law: &PmbLaw, l: __m256d) -> __m256d {
         if law.conical {
-            let one_minus = _mm256_sub_pd(
-                _mm256_set1_pd(1.0),
-                _mm256_div_pd(l, _mm256_set1_pd(law.horizon)),
-            );
-            _mm256_max_pd(one_minus, _mm256_setzero_pd())
+            conical(l, _mm256_set1_pd(law.horizon))
         } else {
             _mm256_set1_pd(1.0)
         }
+    }
+
+    /// The conical profile g = max(1 − |ξ|/δ, 0) on four lanes, a horizon per lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn conical(l: __m256d, horizon: __m256d) -> __m256d {
+        let one_minus = _mm256_sub_pd(_mm256_set1_pd(1.0), _mm256_div_pd(l, horizon));
+        _mm256_max_pd(one_minus, _mm256_setzero_pd())
     }
 
     /// `PmbLaw::per_length` on four lanes, in its arithmetic: c(ξ) ½(pm + pm)(|y| − |ξ|) /
@@ -708,11 +712,7 @@ pub(crate) mod avx {
     ) -> __m256d {
         let c0 = _mm256_set1_pd(law.c0);
         let c = if law.conical {
-            let one_minus = _mm256_sub_pd(
-                _mm256_set1_pd(1.0),
-                _mm256_div_pd(l, _mm256_set1_pd(law.horizon)),
-            );
-            _mm256_mul_pd(c0, _mm256_max_pd(one_minus, _mm256_setzero_pd()))
+            _mm256_mul_pd(c0, conical(l, _mm256_set1_pd(law.horizon)))
         } else {
             c0
         };

@@ -159,7 +159,9 @@ fn tail(
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::*;
-    use crate::material::simd::avx::{add_force, bond_vectors_in, own_position, prefetch, sum};
+    use crate::material::simd::avx::{
+        add_force, bond_vectors_in, conical, own_position, prefetch, sum,
+    };
     use std::arch::x86_64::*;
 
     /// Four lanes of a per-node array at the neighbours of bonds b..b+4.
@@ -215,12 +217,11 @@ mod avx {
     /// c0 g(l) on four lanes (`PmbNodes::c`): g = max(1 − l/h, 0) when conical.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn c4(conical: bool, c0: __m256d, l: __m256d, horizon: __m256d) -> __m256d {
-        if !conical {
-            return c0;
+    unsafe fn c4(is_conical: bool, c0: __m256d, l: __m256d, horizon: __m256d) -> __m256d {
+        match is_conical {
+            true => _mm256_mul_pd(c0, conical(l, horizon)),
+            false => c0,
         }
-        let g = _mm256_sub_pd(_mm256_set1_pd(1.0), _mm256_div_pd(l, horizon));
-        _mm256_mul_pd(c0, _mm256_max_pd(g, _mm256_setzero_pd()))
     }
 
     /// The status bytes of bonds b..b+4 as 64-bit lanes.
