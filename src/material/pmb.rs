@@ -333,8 +333,9 @@ impl<const D: usize> Material<D> for Pmb {
             PerNode::Varying(c0) => {
                 let one_law = nb.softening.is_none() && nb.work.is_none();
                 (one_law && self.horizons.uniform() == Some(self.horizon)).then(|| {
+                    // The law's own c0 is not read: each node's comes from `c0`.
                     // SAFETY: forwarded from the caller; `c0` covers every node (and ghost).
-                    unsafe { simd::pmb_force_per_node(nb, &law(0.0), w, c0) }
+                    unsafe { simd::pmb_force_per_node(nb, &law(f64::NAN), w, c0) }
                 })
             }
         }
