@@ -435,6 +435,7 @@ pub fn write_with<const D: usize>(
         w.write_all(&origin.deck_hash.to_le_bytes())?;
         let qs = driver.quasi_static.as_ref();
         let qs_previous = qs.and_then(|m| m.previous.as_ref());
+        let spectrum = qs.and_then(|m| m.spectrum);
         for size in [
             D,
             sizes.nodes,
@@ -471,9 +472,9 @@ pub fn write_with<const D: usize>(
             qs_previous.is_some() as u64,
             qs_previous.map_or(0.0, |(t, _)| *t).to_bits(),
             qs.is_some_and(|m| m.gershgorin) as u64,
-            qs.is_some_and(|m| m.spectrum.is_some()) as u64,
-            qs.and_then(|m| m.spectrum).map_or(0.0, |s| s.0).to_bits(),
-            qs.and_then(|m| m.spectrum).map_or(0, |s| s.1),
+            spectrum.is_some() as u64,
+            spectrum.map_or(0.0, |s| s.0).to_bits(),
+            spectrum.map_or(0, |s| s.1),
         ];
         for x in scalars {
             w.write_all(&x.to_le_bytes())?;
@@ -753,9 +754,9 @@ fn read_head<const D: usize>(
         });
     }
     let impactors = r.u64()? as usize;
-    // Format 4 has no load step in progress, nor the Gershgorin scalar.
-    let earlier = format == 4;
-    let in_step = if earlier { 0 } else { r.u64()? };
+    // Format 4 has no load step in progress, nor the Gershgorin scalar; format 5 no spectrum.
+    let pauses = format >= 5;
+    let in_step = if pauses { r.u64()? } else { 0 };
     if in_step > 2 {
         return Err(CheckpointError::Corrupt {
             path: path.to_path_buf(),
@@ -811,7 +812,7 @@ fn read_head<const D: usize>(
     let qs = r.u64()? == 1;
     let (increment, largest_load, iterations) = (r.f64()?, r.f64()?, r.u64()?);
     let (has_previous, previous_time) = (r.u64()? == 1, r.f64()?);
-    let gershgorin = !earlier && r.u64()? == 1;
+    let gershgorin = pauses && r.u64()? == 1;
     let spectrum = match format >= 6 {
         true => {
             let (measured, rho, evaluations) = (r.u64()? == 1, r.f64()?, r.u64()?);

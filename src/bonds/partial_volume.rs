@@ -58,6 +58,26 @@ pub struct NodeWeight {
     pub horizon: f64,
 }
 
+impl NodeWeight {
+    /// Fraction φ of this cell inside a horizon `horizon` at distance `len` (seed 000,
+    /// Eqs. 12–14) under `rule`, for the rules that depend on |ξ| only.
+    #[inline(always)]
+    pub fn phi(&self, rule: PartialVolume, len: f64, horizon: f64) -> f64 {
+        match rule {
+            PartialVolume::Hhb => {
+                ((horizon + self.half_cell - len) * self.inv_cell).clamp(0.0, 1.0)
+            }
+            PartialVolume::None | PartialVolume::Exact => {
+                if len <= horizon {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+}
+
 /// Quadrature weights w_ij = φ_ij V_j (and φ_ji), evaluated on the fly from node data so that no
 /// per-bond storage is spent on them.
 #[derive(Debug, Clone)]
@@ -81,17 +101,7 @@ impl UniformWeights {
     /// φ(|ξ|) of seed 000, Eq. 12.
     #[inline(always)]
     pub fn phi(&self, len: f64) -> f64 {
-        let n = &self.node;
-        match self.rule {
-            PartialVolume::Hhb => ((n.horizon + n.half_cell - len) * n.inv_cell).clamp(0.0, 1.0),
-            PartialVolume::None | PartialVolume::Exact => {
-                if len <= n.horizon {
-                    1.0
-                } else {
-                    0.0
-                }
-            }
-        }
+        self.node.phi(self.rule, len, self.node.horizon)
     }
 }
 
@@ -201,17 +211,7 @@ impl Quadrature {
     /// for the rules that depend on |ξ| only (use `phi_pair` for any rule).
     #[inline(always)]
     fn phi(&self, len: f64, horizon: f64, j: usize) -> f64 {
-        let n = &self.nodes[j];
-        match self.rule {
-            PartialVolume::Hhb => ((horizon + n.half_cell - len) * n.inv_cell).clamp(0.0, 1.0),
-            PartialVolume::None | PartialVolume::Exact => {
-                if len <= horizon {
-                    1.0
-                } else {
-                    0.0
-                }
-            }
-        }
+        self.nodes[j].phi(self.rule, len, horizon)
     }
 }
 

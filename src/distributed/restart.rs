@@ -190,6 +190,7 @@ fn part_of<const D: usize>(
     let history_first: usize = rows[..r].iter().map(|x| x.history).sum();
     let (whole, driver) = (parts.scalars(), parts.driver());
     let qs = driver.quasi_static.as_ref();
+    let spectrum = qs.and_then(|m| m.spectrum);
     let predictor = parts.predictor_time();
     let mut part =
         Vec::with_capacity(HEAD + QUASI_STATIC + owned * 6 * D + 1 + entries.div_ceil(8) + history);
@@ -218,9 +219,9 @@ fn part_of<const D: usize>(
         predictor.is_some() as u8 as f64,
         predictor.unwrap_or(0.0),
         qs.is_some_and(|m| m.gershgorin) as u8 as f64,
-        qs.is_some_and(|m| m.spectrum.is_some()) as u8 as f64,
-        qs.and_then(|m| m.spectrum).map_or(0.0, |s| s.0),
-        f64::from_bits(qs.and_then(|m| m.spectrum).map_or(0, |s| s.1)),
+        spectrum.is_some() as u8 as f64,
+        spectrum.map_or(0.0, |s| s.0),
+        f64::from_bits(spectrum.map_or(0, |s| s.1)),
     ]);
     for im in &driver.impactors {
         for x in [&im.position, &im.velocity, &im.force] {

@@ -245,12 +245,7 @@ impl PmbLaw {
     /// `pair_force_per_length` (`Pmb::pair_weight`, seed 001 Eq. 4) on a uniform grid.
     #[inline(always)]
     pub(crate) fn per_length(&self, l: f64, len: f64, pm: f64) -> f64 {
-        let c = if self.conical {
-            self.c0 * (1.0 - l / self.horizon).max(0.0)
-        } else {
-            self.c0
-        };
-        c * 0.5 * (pm + pm) * (len - l) / (l * len)
+        self.c0 * self.profile(l) * 0.5 * (pm + pm) * (len - l) / (l * len)
     }
 
     /// `per_length` of an intact bond times V.
@@ -475,13 +470,33 @@ pub(crate) mod avx {
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(crate) unsafe fn intact(status: &[u8], b: usize) -> __m256d {
+        _mm256_castsi256_pd(_mm256_cmpeq_epi64(
+            status_lanes(status, b),
+            _mm256_setzero_si256(),
+        ))
+    }
+
+    /// The status bytes of bonds b..b+4 as 64-bit lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn status_lanes(status: &[u8], b: usize) -> __m256i {
         // One unaligned 4-byte read: the kernels call this only for b + 4 <= status.len().
         debug_assert!(b + 4 <= status.len());
         let st = u32::from_le((status.as_ptr().add(b) as *const u32).read_unaligned());
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(
-            _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32)),
-            _mm256_setzero_si256(),
-        ))
+        _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32))
+    }
+
+    /// Four lanes of a per-node array at the neighbours `js` of four bonds.
+    #[inline(always)]
+    pub(crate) unsafe fn gather(values: &[f64], js: &[usize; 4]) -> __m256d {
+        _mm256_set_pd(values[js[3]], values[js[2]], values[js[1]], values[js[0]])
+    }
+
+    /// The neighbours of bonds b..b+4.
+    #[inline(always)]
+    pub(crate) fn neighbours(nb: &NodeBonds, b: usize) -> [usize; 4] {
+        let n = &nb.neighbors[b..b + 4];
+        [n[0] as usize, n[1] as usize, n[2] as usize, n[3] as usize]
     }
 
     /// Failure of bonds b..b+4 (s > s0, unless an end is no-fail), then the mask of lanes that
@@ -646,8 +661,7 @@ pub(crate) mod avx {
             let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = fail_and_keep(nb, b, len, l, &mut broke);
-            let j = |lane: usize| nb.neighbors[b + lane] as usize;
-            let c0_j = _mm256_set_pd(c0[j(3)], c0[j(2)], c0[j(1)], c0[j(0)]);
+            let c0_j = gather(c0, &neighbours(nb, b));
             let g = pmb_profile(law, l);
             let pm = phi(w, l);
             // ½(c_i φ + c_j φ), c = c0 g: `Pmb::pair_weight`'s order.
@@ -820,9 +834,8 @@ pub(crate) mod avx {
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
             let keep = fail_and_keep(nb, b, len, l, &mut broke);
-            let j = |lane: usize| nb.neighbors[b + lane] as usize;
-            let theta_j = _mm256_set_pd(theta[j(3)], theta[j(2)], theta[j(1)], theta[j(0)]);
-            let inv_m_j = _mm256_set_pd(inv_m[j(3)], inv_m[j(2)], inv_m[j(1)], inv_m[j(0)]);
+            let js = neighbours(nb, b);
+            let (theta_j, inv_m_j) = (gather(theta, &js), gather(inv_m, &js));
             let (om, e, p) = (omega(law, l), _mm256_sub_pd(len, l), phi(w, l));
             let ti = lps_state(law, theta_i, inv_m_i, om, e, l);
             let tj = lps_state(law, theta_j, inv_m_j, om, e, l);

@@ -79,21 +79,6 @@ impl PmbNodes<'_> {
     }
 }
 
-/// φ of a cell (`half_cell`, `inv_cell`) in a horizon at distance `l` (`Quadrature::phi`).
-#[inline(always)]
-fn phi(rule: PartialVolume, l: f64, horizon: f64, cell: &NodeWeight) -> f64 {
-    match rule {
-        PartialVolume::Hhb => ((horizon + cell.half_cell - l) * cell.inv_cell).clamp(0.0, 1.0),
-        PartialVolume::None | PartialVolume::Exact => {
-            if l <= horizon {
-                1.0
-            } else {
-                0.0
-            }
-        }
-    }
-}
-
 /// PMB force density on node i and the bond halves it broke, on a grid of per-node constants.
 ///
 /// # Safety
@@ -145,8 +130,8 @@ fn tail(
         }
         let cell_j = &w.nodes[j];
         let mu = |bit: u8| if st & bit == 0 { 1.0 } else { 0.0 };
-        let pm_ij = phi(w.rule, l, cell_i.horizon, cell_j) * mu(crate::state::OWN_BROKEN);
-        let pm_ji = phi(w.rule, l, cell_j.horizon, cell_i) * mu(crate::state::OTHER_BROKEN);
+        let pm_ij = cell_j.phi(w.rule, l, cell_i.horizon) * mu(crate::state::OWN_BROKEN);
+        let pm_ji = cell_i.phi(w.rule, l, cell_j.horizon) * mu(crate::state::OTHER_BROKEN);
         let per_length = pmb.pair_weight((i, j), l, pm_ij, pm_ji) * (len - l) / (l * len);
         let coef = per_length * cell_j.volume;
         for a in 0..3 {
@@ -160,15 +145,10 @@ fn tail(
 mod avx {
     use super::*;
     use crate::material::simd::avx::{
-        add_force, bond_vectors_in, conical, own_position, prefetch, sum,
+        add_force, bond_vectors_in, conical, gather, neighbours, own_position, prefetch,
+        status_lanes, sum,
     };
     use std::arch::x86_64::*;
-
-    /// Four lanes of a per-node array at the neighbours of bonds b..b+4.
-    #[inline(always)]
-    unsafe fn gather(values: &[f64], js: &[usize; 4]) -> __m256d {
-        _mm256_set_pd(values[js[3]], values[js[2]], values[js[1]], values[js[0]])
-    }
 
     /// The neighbours' cells, transposed: volume, half cell, inverse cell, horizon per lane.
     #[target_feature(enable = "avx2")]
@@ -222,14 +202,6 @@ mod avx {
             true => _mm256_mul_pd(c0, conical(l, horizon)),
             false => c0,
         }
-    }
-
-    /// The status bytes of bonds b..b+4 as 64-bit lanes.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn status4(status: &[u8], b: usize) -> __m256i {
-        let st = u32::from_le((status.as_ptr().add(b) as *const u32).read_unaligned());
-        _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(st as i32))
     }
 
     /// Lanes where `st & bit == 0`, as 1.0 (else 0.0).
@@ -289,15 +261,15 @@ mod avx {
             prefetch::<512, _>(nb.ref_lengths.as_ptr().add(b));
             let [dx, dy, dz, len] = bond_vectors_in::<D>(nb, b, yi);
             let l = _mm256_loadu_pd(nb.ref_lengths.as_ptr().add(b));
-            let n = &nb.neighbors[b..b + 4];
-            let js = [n[0] as usize, n[1] as usize, n[2] as usize, n[3] as usize];
+            let js = neighbours(nb, b);
             // Each half breaks on its own node's s0 (`CriticalStretch`, seed 003).
             let ext = _mm256_sub_pd(len, l);
             let s0_j = match w.s0 {
                 CriticalStretches::Uniform(s0) => _mm256_set1_pd(s0),
                 CriticalStretches::PerNode(s0) => gather(s0, &js),
             };
-            let broken = _mm256_castsi256_pd(_mm256_cmpeq_epi64(status4(nb.status, b), all_broken));
+            let broken =
+                _mm256_castsi256_pd(_mm256_cmpeq_epi64(status_lanes(nb.status, b), all_broken));
             let over = |s0: __m256d| {
                 _mm256_movemask_pd(_mm256_andnot_pd(
                     broken,
@@ -308,7 +280,7 @@ mod avx {
             if own | other != 0 {
                 break_lanes(nb, b, (own, other), &mut broke);
             }
-            let st = status4(nb.status, b);
+            let st = status_lanes(nb.status, b);
             let keep = _mm256_andnot_pd(
                 _mm256_castsi256_pd(_mm256_cmpeq_epi64(st, all_broken)),
                 _mm256_cmp_pd::<_CMP_GT_OQ>(len, _mm256_setzero_pd()),

@@ -11,7 +11,7 @@ use crate::deck::stages::StagePlan;
 use crate::material::Material;
 use crate::math::Vector;
 use crate::observe::{Observer, StageStart, StepView};
-use crate::solver::quasi_static::{QuasiStaticMemory, Ticker};
+use crate::solver::quasi_static::Ticker;
 use crate::solver::Fields;
 use crate::solver::{
     AdaptiveDt, AdaptiveDtSettings, Advanced, Pause, QuasiStatic, QuasiStaticSettings, Simulation,
@@ -456,9 +456,7 @@ impl<const D: usize> Loop<D> {
                 // pause inside it when a checkpoint falls due.
                 solver.pause = watch.pause_at().map(Pause::At);
                 if solver.advance_or_pause(sim, target)? == Advanced::Paused {
-                    let (memory, written) = watch.checkpoint_inside_step(sim, solver.lend_memory());
-                    solver.take_back(memory.in_step);
-                    written?;
+                    watch.checkpoint_inside_step(sim, solver)?;
                     continue;
                 }
                 sim.check_finite()?;
@@ -629,25 +627,26 @@ impl<'a, const D: usize> Watch<'a, D> {
         self.source.is_none().then(|| wall.last + wall.every)
     }
 
-    /// Writes the checkpoint of a load step paused inside (`memory`: the solver's, with the
-    /// step lent to it, handed back whatever the writing gives), after the observers' files:
-    /// they end at the last committed step, where a continued run's observers continue.
+    /// Writes the checkpoint of the load step `solver` paused inside, after the observers'
+    /// files: they end at the last committed step, where a continued run's observers
+    /// continue. The paused step is lent to the checkpoint, not copied, and taken back
+    /// whatever the writing gives.
     fn checkpoint_inside_step<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
-        memory: QuasiStaticMemory<D>,
-    ) -> (QuasiStaticMemory<D>, Result<(), RunError>) {
-        let solver = DriverState {
-            quasi_static: Some(memory),
+        solver: &mut QuasiStatic<D>,
+    ) -> Result<(), RunError> {
+        let lent = DriverState {
+            quasi_static: Some(solver.lend_memory()),
             ..DriverState::default()
         };
-        let driver = self.at.driver_state(sim, solver);
+        let driver = self.at.driver_state(sim, lent);
         let written = self.write_inside_step(sim, &driver);
-        let memory = driver.quasi_static.expect("the memory just lent");
-        (memory, written)
+        solver.take_back(driver.quasi_static.and_then(|m| m.in_step));
+        written
     }
 
-    /// `checkpoint_inside_step`'s writing, with the solver's memory lent to `driver`.
+    /// `checkpoint_inside_step`'s writing.
     fn write_inside_step<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
