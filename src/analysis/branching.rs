@@ -98,15 +98,17 @@ fn union(parent: &mut [usize], a: usize, b: usize) {
 /// A run of damaged nodes within one band, separated from the next by a gap > ℓ in the
 /// perpendicular coordinate.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Cluster {
+pub(super) struct Cluster {
     /// Mean coordinate along e of its nodes.
-    s: f64,
+    pub s: f64,
     /// Mean coordinate along the perpendicular n of its nodes.
-    r: f64,
+    pub r: f64,
+    /// Its nodes.
+    pub nodes: usize,
 }
 
 /// Clusters of one band's (s, r) pairs, in increasing r.
-fn clusters(mut pts: Vec<(f64, f64)>, link: f64) -> Vec<Cluster> {
+pub(super) fn clusters(mut pts: Vec<(f64, f64)>, link: f64) -> Vec<Cluster> {
     pts.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.total_cmp(&b.0)));
     let mut out = Vec::new();
     let mut start = 0;
@@ -117,6 +119,7 @@ fn clusters(mut pts: Vec<(f64, f64)>, link: f64) -> Vec<Cluster> {
             out.push(Cluster {
                 s: run.iter().map(|p| p.0).sum::<f64>() / n,
                 r: run.iter().map(|p| p.1).sum::<f64>() / n,
+                nodes: run.len(),
             });
             start = j;
         }

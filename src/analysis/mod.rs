@@ -13,6 +13,7 @@
 //!   as a surface binned on a grid normal to its mean normal.
 //! - `branching`: connected damaged regions and the fork of a branching 2D crack, with the
 //!   branch angles.
+//! - `crossings`: how many cracks cross a 2D line, and where.
 //!
 //! Only `crate::math::Vector` is imported from the crate: this layer sits below the solver and
 //! the observers, which may call it.
@@ -22,6 +23,7 @@ pub mod crack_path;
 pub mod crack_speed;
 pub mod crack_surface;
 pub mod crack_tip;
+pub mod crossings;
 pub mod dissipation_rate;
 
 pub use branching::{damaged_components, find_forks, Fork, ForkBranch};
@@ -36,4 +38,5 @@ pub use crack_tip::{
     branch_history, crack_front, find_tip, Branch, CrackFront, SearchBox, Tip, TipSample,
     TipTracker,
 };
+pub use crossings::{crossings, Crossing, CrossingLine};
 pub use dissipation_rate::{dissipation_rate, RateSample};

@@ -958,6 +958,44 @@ pub struct AnalysisDeck {
     /// `crack_area.csv`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crack_surface: Option<CrackSurfaceDeck>,
+    /// How many cracks cross given lines, 2D (`crack_crossings.csv`,
+    /// `crack_crossing_points.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crack_crossings: Option<CrackCrossingsDeck>,
+}
+
+/// `[analysis.crack_crossings]` (2D): every `interval` steps, the number of separate cracks
+/// crossing each of `lines` (damaged nodes in a strip about the line, split at gaps > `link`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrackCrossingsDeck {
+    /// A node is damaged when its damage exceeds this.
+    #[serde(default = "default_tip_threshold")]
+    pub threshold: f64,
+    /// Steps between counts (the last step is always counted).
+    #[serde(default = "default_tip_interval")]
+    pub interval: u64,
+    /// Damaged nodes further apart along a line than this are two cracks (m); absent: three
+    /// times the smallest cell size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link: Option<f64>,
+    #[serde(default)]
+    pub lines: Vec<CrossingLineDeck>,
+}
+
+/// One line of `[analysis.crack_crossings]`: a segment and the strip searched about it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrossingLineDeck {
+    /// Its column in `crack_crossings.csv`.
+    pub name: String,
+    /// Start of the segment (m).
+    pub from: Vec<f64>,
+    /// End of the segment (m).
+    pub to: Vec<f64>,
+    /// Full width of the strip searched (m); absent: the link distance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width: Option<f64>,
 }
 
 /// `[analysis.crack_surface]` (3D): the crack area from the broken bonds every `interval`

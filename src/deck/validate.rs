@@ -405,6 +405,13 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     {
         validate_crack_surface(&mut out, surface, d);
     }
+    if let Some(c) = deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.crack_crossings.as_ref())
+    {
+        validate_crack_crossings(&mut out, c, d);
+    }
     out
 }
 
@@ -487,7 +494,6 @@ fn validate_traditional_horizons(out: &mut Vec<DeckIssue>, deck: &Deck) {
     }
 }
 
-/// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.
 /// `[[boundary_layers]]`: their names join the node sets.
 fn validate_boundary_layers<'a>(
     out: &mut Vec<DeckIssue>,
@@ -568,6 +574,7 @@ fn validate_crack_surface(out: &mut Vec<DeckIssue>, surface: &CrackSurfaceDeck, 
     }
 }
 
+/// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.
 fn validate_crack_path(out: &mut Vec<DeckIssue>, path: &CrackPathDeck, d: usize) {
     let at = |key: &str| format!("analysis.crack_path.{key}");
     if d != 2 {
@@ -631,6 +638,73 @@ fn validate_crack_path(out: &mut Vec<DeckIssue>, path: &CrackPathDeck, d: usize)
             &at("fit_bands"),
             "expected at least 1 band to fit a branch over, found 0",
         ));
+    }
+}
+
+/// `[analysis.crack_crossings]`: 2D, a threshold and schedule, named segments with a length
+/// and positive widths.
+fn validate_crack_crossings(out: &mut Vec<DeckIssue>, c: &CrackCrossingsDeck, d: usize) {
+    let p = "analysis.crack_crossings";
+    let at = |key: &str| format!("{p}.{key}");
+    if d != 2 {
+        out.push(DeckIssue::new(
+            p,
+            "crack crossings are counted in 2D decks only (a line does not separate the cracks of a 3D body); remove the table",
+        ));
+        return;
+    }
+    if !(c.threshold >= 0.0 && c.threshold < 1.0) {
+        out.push(DeckIssue::new(
+            &at("threshold"),
+            format!("the damage threshold must lie in [0, 1), found {}", c.threshold),
+        ));
+    }
+    if c.interval == 0 {
+        out.push(DeckIssue::new(
+            &at("interval"),
+            "expected at least 1 step between counts, found 0",
+        ));
+    }
+    if let Some(link) = c.link {
+        positive(out, &at("link"), link, "the link distance (m)");
+    }
+    if c.lines.is_empty() {
+        out.push(DeckIssue::new(
+            &at("lines"),
+            "expected at least one line ([[analysis.crack_crossings.lines]] with name, from, to)",
+        ));
+    }
+    let mut names: Vec<&str> = Vec::new();
+    for (k, line) in c.lines.iter().enumerate() {
+        let lp = format!("{p}.lines[{k}]");
+        let name = line.name.trim();
+        if name.is_empty() || name.contains([',', '"']) || ["time", "step"].contains(&name) {
+            out.push(DeckIssue::new(
+                &format!("{lp}.name"),
+                format!(
+                    "expected a column name other than time and step, without commas or quotes, found {:?}",
+                    line.name
+                ),
+            ));
+        } else if names.contains(&name) {
+            out.push(DeckIssue::new(
+                &format!("{lp}.name"),
+                format!("line {name:?} is defined twice"),
+            ));
+        }
+        names.push(name);
+        let before = out.len();
+        vector(out, &format!("{lp}.from"), &line.from, d);
+        vector(out, &format!("{lp}.to"), &line.to, d);
+        if out.len() == before && line.from == line.to {
+            out.push(DeckIssue::new(
+                &format!("{lp}.to"),
+                format!("the line needs two distinct ends, found {:?} twice", line.from),
+            ));
+        }
+        if let Some(w) = line.width {
+            positive(out, &format!("{lp}.width"), w, "the strip's width (m)");
+        }
     }
 }
 

@@ -1,5 +1,6 @@
 //! Observers of a run and the file writers they use.
 
+pub mod crack_crossings;
 pub mod crack_path;
 pub mod crack_surface;
 pub mod crack_tip;

@@ -7,6 +7,7 @@ use crate::body::Body;
 use crate::deck::LoadedDeck;
 use crate::material::Material;
 use crate::math::Vector;
+use crate::observe::crack_crossings::{CrackCrossings, CrossingSettings};
 use crate::observe::crack_path::{CrackPath, PathReport, PathSettings};
 use crate::observe::crack_surface::{CrackSurface, CrackSurfaceReport, SurfaceSettings};
 use crate::observe::crack_tip::{CrackReport, CrackTips};
@@ -139,6 +140,18 @@ pub(crate) fn attach_to<const D: usize>(
         )?),
         _ => None,
     };
+    if let Some(c) = analysis.and_then(|a| a.crack_crossings.as_ref()) {
+        if D == 2 {
+            let counts = out.join("crack_crossings.csv");
+            let make = |path: &Path| -> Box<dyn Observer<D>> {
+                Box::new(crack_crossings(c, body, path, out))
+            };
+            observers.push(match restarting {
+                true => Box::new(ResumedCsv::new(&counts, step, make)?),
+                false => make(&counts),
+            });
+        }
+    }
     Ok(Attached {
         observers,
         snapshot_every,
@@ -314,6 +327,39 @@ fn crack_path<const D: usize>(
             fit_bands: p.fit_bands,
         },
     )
+}
+
+/// The crossing counter of `[analysis.crack_crossings]`, counting into `counts`: the link
+/// defaults to three times the smallest cell size (as `[analysis.crack_path]`'s), a strip's
+/// width to the link.
+fn crack_crossings<const D: usize>(
+    c: &crate::deck::schema::CrackCrossingsDeck,
+    body: &Body<D>,
+    counts: &Path,
+    out: &Path,
+) -> CrackCrossings {
+    use crate::analysis::CrossingLine;
+    let link = c.link.unwrap_or(3.0 * body.min_cell_size());
+    let point = |v: &[f64]| Vector::<2>::new(v[0], v[1]);
+    let lines = c
+        .lines
+        .iter()
+        .map(|l| {
+            let line = CrossingLine {
+                from: point(&l.from),
+                to: point(&l.to),
+                width: l.width.unwrap_or(link),
+            };
+            (l.name.trim().to_string(), line)
+        })
+        .collect();
+    let settings = CrossingSettings {
+        threshold: c.threshold,
+        interval: c.interval,
+        link,
+        lines,
+    };
+    CrackCrossings::new(counts, out, settings)
 }
 
 /// The crack-surface observer of `[analysis.crack_surface]`: the cell side defaults to twice
