@@ -78,6 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             component: 1,
             value: v,
             time: TimeFunction::Ramp { duration: 1e-6 },
+            offsets: Vec::new(),
         });
     }
 

@@ -415,6 +415,7 @@ fn arrange<const D: usize>(sim: &mut Simulation<D, Pmb>, touching: Touching) {
                     component,
                     value: 0.0,
                     time: TimeFunction::Constant,
+                    offsets: Vec::new(),
                 });
             }
         }
@@ -589,6 +590,7 @@ pub fn solver_case(name: &str, target_bonds: usize, threads: usize) -> SolverBen
         component: 1,
         value,
         time: TimeFunction::Ramp { duration: 1.0 },
+        offsets: Vec::new(),
     };
     let loading = Loading::<2> {
         conditions: vec![

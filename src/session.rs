@@ -523,6 +523,7 @@ where
             component,
             value,
             time: TimeFunction::Constant,
+            offsets: Vec::new(),
         });
         // Applied by the next step as the deck's own conditions are (velocities at its half
         // step and end, displacements before its force evaluation).

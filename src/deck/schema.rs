@@ -570,7 +570,9 @@ impl Component {
     }
 }
 
-/// Prescribed displacement (m) or velocity (m/s) `value · time(t)` of one component.
+/// Prescribed displacement (m) or velocity (m/s) `value · time(t)` of one component; with a
+/// `gradient`, `(value + gradient · (x − origin)) · time(t)` at each node's reference position
+/// x (a load introduced unevenly: seed 004 Eq. 2's m_l).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundaryDeck {
@@ -580,6 +582,12 @@ pub struct BoundaryDeck {
     pub value: f64,
     #[serde(default)]
     pub time: TimeFunction,
+    /// Change of the value per metre along each axis (one component per dimension).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gradient: Option<Vec<f64>>,
+    /// Where the gradient's term vanishes (m); absent: the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<Vec<f64>>,
 }
 
 /// `[[stages]]`: a stage after the deck's own. Its solver is its own; boundary conditions,

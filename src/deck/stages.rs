@@ -7,7 +7,7 @@ use super::solver_settings::{settings_of, SolverSettings};
 use super::DeckIssue;
 use crate::body::Body;
 use crate::loading::{BoundaryCondition, Load, Loading};
-use crate::math::vector_from_slice;
+use crate::math::{vector_from_slice, Vector};
 use std::collections::BTreeMap;
 
 /// One stage, built: what the run switches to when the stage starts.
@@ -54,13 +54,22 @@ pub fn loading<const D: usize>(
 ) -> Loading<D> {
     let mut loading = Loading::<D>::default();
     for bc in conditions {
+        let nodes = body.node_set(&bc.set).expect("validated set name");
+        let offsets = match &bc.gradient {
+            Some(g) => {
+                let origin = bc.origin.as_deref().map_or(Vector::<D>::zeros(), vector_from_slice);
+                BoundaryCondition::gradient_offsets(body, &nodes, &vector_from_slice(g), &origin)
+            }
+            None => Vec::new(),
+        };
         loading.conditions.push(BoundaryCondition {
             set: bc.set.clone(),
-            nodes: body.node_set(&bc.set).expect("validated set name"),
+            nodes,
             kind: bc.kind,
             component: bc.component.index(),
             value: bc.value,
             time: bc.time.clone(),
+            offsets,
         });
     }
     for load in loads {

@@ -1192,6 +1192,17 @@ fn validate_loading(
         if let Err(e) = bc.time.validate() {
             issues.push(DeckIssue::new(&format!("{p}.time"), e));
         }
+        if let Some(g) = &bc.gradient {
+            vector(issues, &format!("{p}.gradient"), g, d);
+        }
+        match (&bc.origin, &bc.gradient) {
+            (Some(o), Some(_)) => vector(issues, &format!("{p}.origin"), o, d),
+            (Some(_), None) => issues.push(DeckIssue::new(
+                &format!("{p}.origin"),
+                "an origin is where a gradient's term vanishes; give `gradient` too, or remove it",
+            )),
+            _ => {}
+        }
     }
     for (k, load) in loads.iter().enumerate() {
         let p = format!("{prefix}loads[{k}]");

@@ -17,7 +17,8 @@ pub enum Kinematic {
     Velocity,
 }
 
-/// A prescribed displacement or velocity `value · f(t)` on one component of a node set.
+/// A prescribed displacement or velocity `value · f(t)` on one component of a node set; with
+/// `offsets` (one per node), `(value + offsets[k]) · f(t)` at node `nodes[k]`.
 #[derive(Debug, Clone)]
 pub struct BoundaryCondition {
     pub set: String,
@@ -26,6 +27,32 @@ pub struct BoundaryCondition {
     pub component: usize,
     pub value: f64,
     pub time: TimeFunction,
+    /// Per-node additions to `value` (a gradient's term); empty: none.
+    pub offsets: Vec<f64>,
+}
+
+impl BoundaryCondition {
+    /// The prescribed value at the condition's k-th node, at f(t) = `factor`.
+    fn at(&self, k: usize, factor: f64) -> f64 {
+        match self.offsets.get(k) {
+            Some(offset) => (self.value + offset) * factor,
+            None => self.value * factor,
+        }
+    }
+
+    /// The offsets of a gradient g (value per metre) about `origin`: g · (x − origin) at each
+    /// node's reference position.
+    pub fn gradient_offsets<const D: usize>(
+        body: &Body<D>,
+        nodes: &[u32],
+        gradient: &Vector<D>,
+        origin: &Vector<D>,
+    ) -> Vec<f64> {
+        nodes
+            .iter()
+            .map(|&i| gradient.dot(&(body.positions[i as usize] - origin)))
+            .collect()
+    }
 }
 
 /// A distributed load on a node set: a body force density `value · f(t)` (N/m³), or a total
@@ -56,9 +83,9 @@ impl<const D: usize> Loading<D> {
             .iter()
             .filter(|c| c.kind == Kinematic::Velocity)
         {
-            let v = bc.value * bc.time.value(t_half);
-            for &i in &bc.nodes {
-                state.v[i as usize][bc.component] = v;
+            let f = bc.time.value(t_half);
+            for (k, &i) in bc.nodes.iter().enumerate() {
+                state.v[i as usize][bc.component] = bc.at(k, f);
             }
         }
     }
@@ -70,9 +97,10 @@ impl<const D: usize> Loading<D> {
             .iter()
             .filter(|c| c.kind == Kinematic::Displacement)
         {
-            let u = bc.value * bc.time.value(t);
-            for &i in &bc.nodes {
+            let f = bc.time.value(t);
+            for (k, &i) in bc.nodes.iter().enumerate() {
                 let i = i as usize;
+                let u = bc.at(k, f);
                 state.u[i][bc.component] = u;
                 state.current[i][bc.component] = body.positions[i][bc.component] + u;
             }
@@ -82,12 +110,12 @@ impl<const D: usize> Loading<D> {
     /// At the end of a step (time t): sets the velocities of every constrained component.
     pub fn apply_end_velocities(&self, state: &mut State<D>, t: f64) {
         for bc in &self.conditions {
-            let v = match bc.kind {
-                Kinematic::Velocity => bc.value * bc.time.value(t),
-                Kinematic::Displacement => bc.value * bc.time.rate(t),
+            let f = match bc.kind {
+                Kinematic::Velocity => bc.time.value(t),
+                Kinematic::Displacement => bc.time.rate(t),
             };
-            for &i in &bc.nodes {
-                state.v[i as usize][bc.component] = v;
+            for (k, &i) in bc.nodes.iter().enumerate() {
+                state.v[i as usize][bc.component] = bc.at(k, f);
             }
         }
     }

@@ -352,6 +352,7 @@ pub(crate) fn bar_3d_sim<M: Material<3>>(material: M, damage: Damage) -> Simulat
                 component: 0,
                 value: v,
                 time: TimeFunction::Ramp { duration: 2e-6 },
+                offsets: Vec::new(),
             });
         }
         Simulation::new(

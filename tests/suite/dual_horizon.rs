@@ -672,6 +672,7 @@ fn pulse_through<M: Material<2>>(
         component: 1,
         value: 0.0,
         time: TimeFunction::Constant,
+        offsets: Vec::new(),
     });
     let mut sim = Simulation::new(
         body,

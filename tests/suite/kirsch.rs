@@ -113,6 +113,7 @@ fn errors(grid: &str, plate: Plate) -> (f64, f64, f64, f64, usize) {
                     component: k,
                     value: u[k],
                     time: TimeFunction::Ramp { duration: 1.0 },
+                    offsets: Vec::new(),
                 });
             }
         }

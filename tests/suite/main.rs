@@ -4,6 +4,7 @@
 
 mod adaptive_dt;
 mod blocks;
+mod boundary_gradient;
 mod boundary_layers;
 mod common;
 mod conformance;

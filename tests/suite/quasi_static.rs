@@ -130,6 +130,7 @@ fn patch_error_settings<M: Material<2>>(
                     component: k,
                     value: field(&x)[k],
                     time: TimeFunction::Ramp { duration: 1.0 },
+                    offsets: Vec::new(),
                 });
             }
         }

@@ -108,6 +108,7 @@ fn measure<const D: usize, M: Material<D>>(
             component: k,
             value: 0.0,
             time: TimeFunction::Constant,
+            offsets: Vec::new(),
         });
     }
     let mut sim = Simulation::new(
