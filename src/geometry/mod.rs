@@ -53,6 +53,13 @@ pub enum Shape {
     },
     /// 2D simple polygon, vertices in either orientation, not repeated at the end.
     Polygon { vertices: Vec<[f64; 2]> },
+    /// 2D rectangle of `width` centred on the segment from `start` to `end`, square at both
+    /// ends: a notch of finite width (seed 004's b_c), cut out of a body with `difference`.
+    Slot {
+        start: [f64; 2],
+        end: [f64; 2],
+        width: f64,
+    },
     /// 2D half-plane `(p - point) · normal <= 0`: the normal points *out* of it.
     HalfPlane { point: [f64; 2], normal: [f64; 2] },
     /// 3D half-space `(p - point) · normal <= 0`: the normal points *out* of it.
@@ -84,6 +91,24 @@ impl Shape {
         }
     }
 
+    /// A slot's four corners, counter-clockwise from the one beside `start` on the right of
+    /// the direction start → end; `None` for other shapes.
+    pub fn slot_corners(&self) -> Option<[[f64; 2]; 4]> {
+        let Shape::Slot { start, end, width } = self else {
+            return None;
+        };
+        let axis = sub(end, start);
+        let len = norm2(&axis).sqrt();
+        let h = 0.5 * width / len;
+        let n = [-axis[1] * h, axis[0] * h];
+        Some([
+            [start[0] - n[0], start[1] - n[1]],
+            [end[0] - n[0], end[1] - n[1]],
+            [end[0] + n[0], end[1] + n[1]],
+            [start[0] + n[0], start[1] + n[1]],
+        ])
+    }
+
     /// The name used for this variant in decks (`type = "..."`).
     pub fn kind(&self) -> &'static str {
         match self {
@@ -93,6 +118,7 @@ impl Shape {
             Shape::Sphere { .. } => "sphere",
             Shape::Cylinder { .. } => "cylinder",
             Shape::Polygon { .. } => "polygon",
+            Shape::Slot { .. } => "slot",
             Shape::HalfPlane { .. } => "half_plane",
             Shape::HalfSpace { .. } => "half_space",
             Shape::Union { .. } => "union",
@@ -112,6 +138,7 @@ impl Shape {
             Shape::Rectangle { .. }
             | Shape::Disk { .. }
             | Shape::Polygon { .. }
+            | Shape::Slot { .. }
             | Shape::HalfPlane { .. } => Ok(2),
             Shape::Box { .. }
             | Shape::Sphere { .. }
@@ -239,6 +266,20 @@ impl Shape {
                 }
                 Ok(())
             }
+            Shape::Slot { start, end, width } => {
+                finite("start", start)?;
+                finite("end", end)?;
+                if start == end {
+                    return invalid(format!(
+                        "a slot needs two distinct ends, found {} twice",
+                        fmt_vec(start)
+                    ));
+                }
+                if !(*width > 0.0 && width.is_finite()) {
+                    return invalid(format!("slot width must be > 0 (m), found {width}"));
+                }
+                Ok(())
+            }
             Shape::HalfPlane { point, normal } => {
                 finite("point", point)?;
                 nonzero("normal", normal)
@@ -306,6 +347,15 @@ impl Shape {
                 norm2(&perp) <= radius * radius
             }),
             Shape::Polygon { vertices } => p2(p).is_some_and(|q| polygon_contains(vertices, q)),
+            Shape::Slot { start, end, width } => p2(p).is_some_and(|q| {
+                let axis = sub(end, start);
+                let d = sub(&q, start);
+                // Along: 0 ≤ d·a ≤ |a|²; across: |d × a| ≤ (w/2)|a|, without a division.
+                let along = dot(&d, &axis);
+                let across = d[0] * axis[1] - d[1] * axis[0];
+                let a2 = norm2(&axis);
+                (0.0..=a2).contains(&along) && across * across <= 0.25 * width * width * a2
+            }),
             Shape::HalfPlane { point, normal } => {
                 p2(p).is_some_and(|q| dot(&sub(&q, point), normal) <= 0.0)
             }
@@ -362,6 +412,12 @@ impl Shape {
                 }
                 Some((lo, hi))
             }
+            Shape::Slot { .. } => self.slot_corners().and_then(|v| {
+                Shape::Polygon {
+                    vertices: v.to_vec(),
+                }
+                .bounding_box()
+            }),
             Shape::HalfPlane { .. } | Shape::HalfSpace { .. } => None,
             Shape::Union { shapes } => {
                 let mut acc: Option<(Vec<f64>, Vec<f64>)> = None;
@@ -969,6 +1025,64 @@ mod tests {
     }
 
     #[test]
+    fn slot_is_the_rectangle_of_its_width_about_its_segment() {
+        // A 3-4-5 segment from (1, 1) to (4, 5), 0.4 wide: unit direction (0.6, 0.8), normal
+        // (−0.8, 0.6).
+        let slot = Shape::Slot {
+            start: [1.0, 1.0],
+            end: [4.0, 5.0],
+            width: 0.4,
+        };
+        let at = |s: f64, r: f64| [1.0 + 0.6 * s - 0.8 * r, 1.0 + 0.8 * s + 0.6 * r];
+        for (s, r, inside) in [
+            (2.5, 0.0, true),
+            (2.5, 0.19, true),
+            (2.5, -0.19, true),
+            (2.5, 0.21, false),
+            (2.5, -0.21, false),
+            (0.01, 0.1, true),
+            (-0.01, 0.0, false),
+            (4.99, -0.1, true),
+            (5.01, 0.0, false),
+        ] {
+            assert_eq!(slot.contains(&at(s, r)), inside, "s = {s}, r = {r}");
+        }
+        let corners = slot.slot_corners().unwrap();
+        for (c, (s, r)) in corners
+            .iter()
+            .zip([(0.0, -0.2), (5.0, -0.2), (5.0, 0.2), (0.0, 0.2)])
+        {
+            let expected = at(s, r);
+            assert!((c[0] - expected[0]).abs() < 1e-12 && (c[1] - expected[1]).abs() < 1e-12);
+        }
+        let (lo, hi) = slot.bounding_box().unwrap();
+        assert!((lo[0] - (1.0 - 0.16)).abs() < 1e-12 && (hi[1] - (5.0 + 0.12)).abs() < 1e-12);
+        assert_eq!(slot.dim(), Ok(2));
+        // Cut from a plate: the notch's nodes are gone, the plate's beside it stay.
+        let plate = Shape::Difference {
+            base: std::boxed::Box::new(Shape::Rectangle {
+                min: [0.0, 0.0],
+                max: [6.0, 6.0],
+            }),
+            subtract: vec![slot.clone()],
+        };
+        assert!(!plate.contains(&at(2.5, 0.0)) && plate.contains(&at(2.5, 0.3)));
+    }
+
+    #[test]
+    fn invalid_slot() {
+        let slot = |end: [f64; 2], width: f64| Shape::Slot {
+            start: [0.0, 0.0],
+            end,
+            width,
+        };
+        assert!(err(&slot([0.0, 0.0], 1.0)).contains("two distinct ends"));
+        assert!(err(&slot([1.0, 0.0], 0.0)).contains("slot width must be > 0"));
+        assert!(err(&slot([1.0, f64::NAN], 1.0)).contains("end"));
+        assert!(slot([1.0, 0.0], 0.1).validate().is_ok());
+    }
+
+    #[test]
     fn invalid_zero_normal() {
         let h = Shape::HalfPlane {
             point: [0.0, 0.0],
@@ -1077,6 +1191,7 @@ mod tests {
         let text2 = r#"shape = { type = "union", shapes = [
             { type = "polygon", vertices = [[0, 0], [1, 0], [0, 1]] },
             { type = "half_plane", point = [0, 0], normal = [0, 1] },
+            { type = "slot", start = [0, 0], end = [1, 0], width = 0.1 },
         ] }"#;
         let s2 = from_toml(text2).expect("valid deck");
         assert_eq!(s2.dim(), Ok(2));
