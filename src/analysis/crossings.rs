@@ -57,7 +57,10 @@ pub fn crossings(
         line.width > 0.0 && line.width.is_finite(),
         "a crossing line's strip needs a width"
     );
-    assert!(link > 0.0 && link.is_finite(), "linking distance must be positive");
+    assert!(
+        link > 0.0 && link.is_finite(),
+        "linking distance must be positive"
+    );
     let e = span / length;
     let n = Vector::<2>::new(-e[1], e[0]);
     // (distance across, distance along): `clusters` splits on gaps in the second.
@@ -130,8 +133,14 @@ mod tests {
         let h = 0.01;
         let (pos, d) = vertical_cracks(h, &[0.3, 0.34], 0.0, 0.0);
         // Gap 0.04: two crossings with ℓ = 0.03, one with ℓ = 0.05.
-        assert_eq!(crossings(&pos, &d, 0.35, &horizontal(0.5, 2.0 * h), 0.03).len(), 2);
-        assert_eq!(crossings(&pos, &d, 0.35, &horizontal(0.5, 2.0 * h), 0.05).len(), 1);
+        assert_eq!(
+            crossings(&pos, &d, 0.35, &horizontal(0.5, 2.0 * h), 0.03).len(),
+            2
+        );
+        assert_eq!(
+            crossings(&pos, &d, 0.35, &horizontal(0.5, 2.0 * h), 0.05).len(),
+            1
+        );
     }
 
     #[test]
@@ -139,7 +148,10 @@ mod tests {
         let h = 0.01;
         let (pos, d) = vertical_cracks(h, &[0.5], 0.0, 0.6);
         assert!(crossings(&pos, &d, 0.35, &horizontal(0.5, 2.0 * h), 3.0 * h).is_empty());
-        assert_eq!(crossings(&pos, &d, 0.35, &horizontal(0.7, 2.0 * h), 3.0 * h).len(), 1);
+        assert_eq!(
+            crossings(&pos, &d, 0.35, &horizontal(0.7, 2.0 * h), 3.0 * h).len(),
+            1
+        );
         // Below the threshold nothing is damaged.
         assert!(crossings(&pos, &d, 0.5, &horizontal(0.7, 2.0 * h), 3.0 * h).is_empty());
     }

@@ -57,7 +57,10 @@ pub fn loading<const D: usize>(
         let nodes = body.node_set(&bc.set).expect("validated set name");
         let offsets = match &bc.gradient {
             Some(g) => {
-                let origin = bc.origin.as_deref().map_or(Vector::<D>::zeros(), vector_from_slice);
+                let origin = bc
+                    .origin
+                    .as_deref()
+                    .map_or(Vector::<D>::zeros(), vector_from_slice);
                 BoundaryCondition::gradient_offsets(body, &nodes, &vector_from_slice(g), &origin)
             }
             None => Vec::new(),

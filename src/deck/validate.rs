@@ -656,7 +656,10 @@ fn validate_crack_crossings(out: &mut Vec<DeckIssue>, c: &CrackCrossingsDeck, d:
     if !(c.threshold >= 0.0 && c.threshold < 1.0) {
         out.push(DeckIssue::new(
             &at("threshold"),
-            format!("the damage threshold must lie in [0, 1), found {}", c.threshold),
+            format!(
+                "the damage threshold must lie in [0, 1), found {}",
+                c.threshold
+            ),
         ));
     }
     if c.interval == 0 {
@@ -699,7 +702,10 @@ fn validate_crack_crossings(out: &mut Vec<DeckIssue>, c: &CrackCrossingsDeck, d:
         if out.len() == before && line.from == line.to {
             out.push(DeckIssue::new(
                 &format!("{lp}.to"),
-                format!("the line needs two distinct ends, found {:?} twice", line.from),
+                format!(
+                    "the line needs two distinct ends, found {:?} twice",
+                    line.from
+                ),
             ));
         }
         if let Some(w) = line.width {

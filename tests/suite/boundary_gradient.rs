@@ -83,7 +83,12 @@ fn each_node_of_the_set_gets_the_value_of_the_gradient_at_its_position() {
     for &i in &right {
         let i = i as usize;
         let expected = -1.0 - 400.0 * (x[2 * i + 1] - 1e-3);
-        assert!((v[2 * i] - expected).abs() <= 1e-12, "v_x {} at y = {}", v[2 * i], x[2 * i + 1]);
+        assert!(
+            (v[2 * i] - expected).abs() <= 1e-12,
+            "v_x {} at y = {}",
+            v[2 * i],
+            x[2 * i + 1]
+        );
         speeds.push(v[2 * i]);
     }
     // The top is pushed faster than the bottom: the gradient is felt, not averaged away.
@@ -94,7 +99,12 @@ fn each_node_of_the_set_gets_the_value_of_the_gradient_at_its_position() {
     for &i in &left {
         let i = i as usize;
         let expected = 0.01 * x[2 * i] * ramp;
-        assert!((u[2 * i + 1] - expected).abs() <= 1e-18, "u_y {} at x = {}", u[2 * i + 1], x[2 * i]);
+        assert!(
+            (u[2 * i + 1] - expected).abs() <= 1e-18,
+            "u_y {} at x = {}",
+            u[2 * i + 1],
+            x[2 * i]
+        );
         assert_eq!(u[2 * i], 0.0, "held in x");
     }
 }

@@ -65,12 +65,19 @@ to = [0.0079, 0.004]
     assert_eq!(header, ["time", "step", "across", "ahead"]);
     let across: Vec<f64> = rows.iter().map(|r| num(&r[2])).collect();
     assert_eq!(across.first(), Some(&0.0), "no crack crosses at the start");
-    assert_eq!(across.last(), Some(&1.0), "one crack at the end: {across:?}");
+    assert_eq!(
+        across.last(),
+        Some(&1.0),
+        "one crack at the end: {across:?}"
+    );
     assert!(
         across.windows(2).all(|w| w[0] <= w[1]),
         "a crossing, once there, stays: {across:?}"
     );
-    assert!(rows.iter().all(|r| num(&r[3]) == 0.0), "nothing reaches x = 7.9 mm");
+    assert!(
+        rows.iter().all(|r| num(&r[3]) == 0.0),
+        "nothing reaches x = 7.9 mm"
+    );
     // The tip passes x = 4 mm no later than the first count of one crossing.
     let (_, tips) = read_csv(&dir.join("crack_tip.csv"));
     let first_crossed = rows.iter().find(|r| num(&r[2]) == 1.0).map(|r| num(&r[0]));
