@@ -9,7 +9,6 @@ use super::csv::{push_number, CsvHistory};
 use super::observer::{Every, Observer, StepView};
 use crate::analysis::{crossings, Crossing, CrossingLine};
 use crate::atomic_file::write_atomic;
-use crate::math::Vector;
 use std::io;
 use std::path::{Path, PathBuf};
 
@@ -83,12 +82,7 @@ impl<const D: usize> Observer<D> for CrackCrossings {
     }
 
     fn observe(&mut self, view: &StepView<D>) -> io::Result<()> {
-        let positions: Vec<Vector<2>> = view
-            .body
-            .positions
-            .iter()
-            .map(|p| Vector::<2>::new(p[0], p[1]))
-            .collect();
+        let positions = view.plane_positions();
         let damage = view.damage();
         let s = &self.settings;
         self.last = s
@@ -114,6 +108,7 @@ impl<const D: usize> Observer<D> for CrackCrossings {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vector;
 
     #[test]
     fn the_points_file_lists_each_lines_crossings_in_order() {

@@ -230,12 +230,7 @@ impl<const D: usize> Observer<D> for CrackPath {
     }
 
     fn observe(&mut self, view: &StepView<D>) -> io::Result<()> {
-        let positions: Vec<Vector<2>> = view
-            .body
-            .positions
-            .iter()
-            .map(|p| Vector::<2>::new(p[0], p[1]))
-            .collect();
+        let positions = view.plane_positions();
         let s = self.settings.clone();
         let mut direction = Vector::<2>::zeros();
         direction[s.axis] = 1.0;

@@ -35,6 +35,15 @@ impl<'a, const D: usize> StepView<'a, D> {
             energy: OnceCell::new(),
         }
     }
+    /// The nodes' reference positions in the plane (their x and y): what the 2D analyses
+    /// read.
+    pub fn plane_positions(&self) -> Vec<Vector<2>> {
+        self.body
+            .positions
+            .iter()
+            .map(|p| Vector::<2>::new(p[0], p[1]))
+            .collect()
+    }
     /// Damage index per node.
     pub fn damage(&self) -> &[f64] {
         self.damage.get_or_init(|| self.fields.damage())

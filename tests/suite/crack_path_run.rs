@@ -97,45 +97,14 @@ to = [0.0079, 0.004]
     std::fs::remove_dir_all(&dir).ok();
 }
 
-#[test]
-fn crack_paths_are_refused_in_3d() {
-    let text = r#"
-version = 2
-dimension = 3
-
-[discretization]
-type = "lattice"
-shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.002, 0.002, 0.002] }
-spacing = 0.5e-3
-horizon_ratio = 3.0
-
-[material]
-type = "pmb"
-density = 1180.0
-youngs_modulus = 3.09e9
-fracture_energy = 300.0
-
-[solver]
-type = "explicit"
-end_time = 1e-7
-
-[analysis.crack_path]
-"#;
-    let Err(err) = LoadedDeck::from_str(text, Path::new("path3d.toml")) else {
-        panic!("refused")
+/// A small PMB block, 2D or 3D, with the analysis tables given.
+fn small_deck(dimension: usize, analysis: &str) -> String {
+    let shape = match dimension {
+        2 => r#"{ type = "rectangle", min = [0.0, 0.0], max = [0.004, 0.004] }"#,
+        _ => r#"{ type = "box", min = [0.0, 0.0, 0.0], max = [0.002, 0.002, 0.002] }"#,
     };
-    let err = err.to_string();
-    assert!(
-        err.contains("analysis.crack_path") && err.contains("2D"),
-        "{err}"
-    );
-}
-
-#[test]
-fn crossing_lines_that_cannot_be_counted_are_refused_with_their_keys() {
-    let deck = |dimension: &str, shape: &str, lines: &str| {
-        format!(
-            r#"
+    format!(
+        r#"
 version = 2
 dimension = {dimension}
 
@@ -155,19 +124,35 @@ fracture_energy = 300.0
 type = "explicit"
 end_time = 1e-7
 
-[analysis.crack_crossings]
-{lines}
+{analysis}
 "#
-        )
+    )
+}
+
+#[test]
+fn crack_paths_are_refused_in_3d() {
+    let text = small_deck(3, "[analysis.crack_path]");
+    let Err(err) = LoadedDeck::from_str(&text, Path::new("path3d.toml")) else {
+        panic!("refused")
+    };
+    let err = err.to_string();
+    assert!(
+        err.contains("analysis.crack_path") && err.contains("2D"),
+        "{err}"
+    );
+}
+
+#[test]
+fn crossing_lines_that_cannot_be_counted_are_refused_with_their_keys() {
+    let deck = |dimension: usize, lines: &str| {
+        small_deck(dimension, &format!("[analysis.crack_crossings]\n{lines}"))
     };
     let error = |text: String| match LoadedDeck::from_str(&text, Path::new("crossings.toml")) {
         Err(err) => err.to_string(),
         Ok(_) => panic!("refused: {text}"),
     };
-    let square = r#"{ type = "rectangle", min = [0.0, 0.0], max = [0.004, 0.004] }"#;
     let err = error(deck(
-        "2",
-        square,
+        2,
         r#"
 [[analysis.crack_crossings.lines]]
 name = "a"
@@ -196,12 +181,10 @@ to = [0.004, 0.0]
     ] {
         assert!(err.contains(expected), "{expected:?} in {err}");
     }
-    let err = error(deck("2", square, "threshold = 0.2"));
+    let err = error(deck(2, "threshold = 0.2"));
     assert!(err.contains("at least one line"), "{err}");
-    let cube = r#"{ type = "box", min = [0.0, 0.0, 0.0], max = [0.002, 0.002, 0.002] }"#;
     let err = error(deck(
-        "3",
-        cube,
+        3,
         "[[analysis.crack_crossings.lines]]\nname = \"a\"\nfrom = [0.0, 0.0, 0.0]\nto = [0.002, 0.0, 0.0]",
     ));
     assert!(
