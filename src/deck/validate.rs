@@ -574,6 +574,17 @@ fn validate_crack_surface(out: &mut Vec<DeckIssue>, surface: &CrackSurfaceDeck, 
     }
 }
 
+/// A damage threshold of an analysis: in [0, 1). Damage lies in [0, 1]; "above 1" would never
+/// hold, so 1 is refused too.
+fn damage_threshold(out: &mut Vec<DeckIssue>, path: &str, threshold: f64) {
+    if !(0.0..1.0).contains(&threshold) {
+        out.push(DeckIssue::new(
+            path,
+            format!("the damage threshold must lie in [0, 1), found {threshold}"),
+        ));
+    }
+}
+
 /// `[analysis.crack_path]`: 2D, an in-plane axis, positive lengths, a reference of points.
 fn validate_crack_path(out: &mut Vec<DeckIssue>, path: &CrackPathDeck, d: usize) {
     let at = |key: &str| format!("analysis.crack_path.{key}");
@@ -590,15 +601,7 @@ fn validate_crack_path(out: &mut Vec<DeckIssue>, path: &CrackPathDeck, d: usize)
             "expected \"x\" or \"y\" in a 2D deck, found \"z\"",
         ));
     }
-    if !(path.threshold >= 0.0 && path.threshold < 1.0) {
-        out.push(DeckIssue::new(
-            &at("threshold"),
-            format!(
-                "the damage threshold must lie in [0, 1), found {}",
-                path.threshold
-            ),
-        ));
-    }
+    damage_threshold(out, &at("threshold"), path.threshold);
     for (key, value) in [("bin_width", path.bin_width), ("link", path.link)] {
         if let Some(v) = value.filter(|v| !(*v > 0.0 && v.is_finite())) {
             out.push(DeckIssue::new(
@@ -653,15 +656,7 @@ fn validate_crack_crossings(out: &mut Vec<DeckIssue>, c: &CrackCrossingsDeck, d:
         ));
         return;
     }
-    if !(c.threshold >= 0.0 && c.threshold < 1.0) {
-        out.push(DeckIssue::new(
-            &at("threshold"),
-            format!(
-                "the damage threshold must lie in [0, 1), found {}",
-                c.threshold
-            ),
-        ));
-    }
+    damage_threshold(out, &at("threshold"), c.threshold);
     if c.interval == 0 {
         out.push(DeckIssue::new(
             &at("interval"),
@@ -751,16 +746,7 @@ fn validate_crack_tip(out: &mut Vec<DeckIssue>, tip: &CrackTipDeck, d: usize) {
             "the propagation direction must be non-zero",
         ));
     }
-    // Damage lies in [0, 1]; "above 1" would never hold, so 1 is refused too.
-    if !(tip.threshold >= 0.0 && tip.threshold < 1.0) {
-        out.push(DeckIssue::new(
-            &at("threshold"),
-            format!(
-                "the damage threshold must lie in [0, 1), found {}",
-                tip.threshold
-            ),
-        ));
-    }
+    damage_threshold(out, &at("threshold"), tip.threshold);
     if tip.interval == 0 {
         out.push(DeckIssue::new(
             &at("interval"),

@@ -129,9 +129,8 @@ fn collect_outlines(shape: &Shape, size: f64, frame: ([f64; 2], [f64; 2]), out: 
             );
         }
         Shape::Polygon { vertices } => out.push(divided_loop(vertices, size)),
-        Shape::Slot { .. } => {
-            let corners = shape.slot_corners().expect("a slot");
-            out.push(divided_loop(&corners, size))
+        Shape::Slot { start, end, width } => {
+            out.push(divided_loop(&super::slot_corners(start, end, *width), size))
         }
         Shape::HalfPlane { point, normal } => {
             if let Some((a, b)) = clip_line(*point, [-normal[1], normal[0]], frame) {

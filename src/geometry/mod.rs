@@ -91,24 +91,6 @@ impl Shape {
         }
     }
 
-    /// A slot's four corners, counter-clockwise from the one beside `start` on the right of
-    /// the direction start → end; `None` for other shapes.
-    pub fn slot_corners(&self) -> Option<[[f64; 2]; 4]> {
-        let Shape::Slot { start, end, width } = self else {
-            return None;
-        };
-        let axis = sub(end, start);
-        let len = norm2(&axis).sqrt();
-        let h = 0.5 * width / len;
-        let n = [-axis[1] * h, axis[0] * h];
-        Some([
-            [start[0] - n[0], start[1] - n[1]],
-            [end[0] - n[0], end[1] - n[1]],
-            [end[0] + n[0], end[1] + n[1]],
-            [start[0] + n[0], start[1] + n[1]],
-        ])
-    }
-
     /// The name used for this variant in decks (`type = "..."`).
     pub fn kind(&self) -> &'static str {
         match self {
@@ -412,12 +394,10 @@ impl Shape {
                 }
                 Some((lo, hi))
             }
-            Shape::Slot { .. } => self.slot_corners().and_then(|v| {
-                Shape::Polygon {
-                    vertices: v.to_vec(),
-                }
-                .bounding_box()
-            }),
+            Shape::Slot { start, end, width } => Shape::Polygon {
+                vertices: slot_corners(start, end, *width).to_vec(),
+            }
+            .bounding_box(),
             Shape::HalfPlane { .. } | Shape::HalfSpace { .. } => None,
             Shape::Union { shapes } => {
                 let mut acc: Option<(Vec<f64>, Vec<f64>)> = None;
@@ -486,6 +466,20 @@ fn p2(p: &[f64]) -> Option<[f64; 2]> {
 
 fn p3(p: &[f64]) -> Option<[f64; 3]> {
     (p.len() >= 3).then(|| [p[0], p[1], p[2]])
+}
+
+/// A slot's four corners, counter-clockwise from the one beside `start` on the right of the
+/// direction start → end.
+pub fn slot_corners(start: &[f64; 2], end: &[f64; 2], width: f64) -> [[f64; 2]; 4] {
+    let axis = sub(end, start);
+    let h = 0.5 * width / norm2(&axis).sqrt();
+    let n = [-axis[1] * h, axis[0] * h];
+    [
+        [start[0] - n[0], start[1] - n[1]],
+        [end[0] - n[0], end[1] - n[1]],
+        [end[0] + n[0], end[1] + n[1]],
+        [start[0] + n[0], start[1] + n[1]],
+    ]
 }
 
 fn sub<const N: usize>(a: &[f64; N], b: &[f64; N]) -> [f64; N] {
@@ -1047,7 +1041,7 @@ mod tests {
         ] {
             assert_eq!(slot.contains(&at(s, r)), inside, "s = {s}, r = {r}");
         }
-        let corners = slot.slot_corners().unwrap();
+        let corners = slot_corners(&[1.0, 1.0], &[4.0, 5.0], 0.4);
         for (c, (s, r)) in corners
             .iter()
             .zip([(0.0, -0.2), (5.0, -0.2), (5.0, 0.2), (0.0, 0.2)])
