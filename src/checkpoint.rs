@@ -7,7 +7,8 @@
 //! - sizes (u64 each): dimension, nodes, directed bond entries, history words, previous
 //!   positions, previous own-half matrices (words), the quasi-static predictor's
 //!   displacements (0 or nodes), impactors, and the load step in progress (0: none; 1: a
-//!   paused relaxation; 2: one with its start kept for the Gershgorin fallback);
+//!   paused ADR relaxation; 2: one with its start kept for the Gershgorin fallback; 3: a
+//!   paused NCG minimisation);
 //! - payload: the State scalars, the driver state (time step controller, stage in progress,
 //!   quasi-static solver), then the arrays (u, v, current, force, body_force as D f64 per
 //!   node; status as u8; history as f64; previous as D f64 each; the previous matrices as
@@ -16,10 +17,11 @@
 //!   each and its penalty energy);
 //! - the load step in progress, when the quasi-static solver paused inside one: its scalars
 //!   (t0, t1, the iterations, equilibria, broken bond halves and residual so far, the
-//!   relaxation's iterations and first residual), then u0, the applied forces at t0, the ADR
-//!   velocities and last accelerations (D f64 per node each), the work record (history,
-//!   previous positions, previous matrices, as the state's), and with the fallback start its
-//!   u, current positions, forces, body forces and work record;
+//!   relaxation's iterations and its first residual, or for NCG its iterations since the last
+//!   restart), then u0, the applied forces at t0, the ADR velocities and last accelerations
+//!   or the NCG search direction (D f64 per node each), the work record (history, previous
+//!   positions, previous matrices, as the state's), and with the fallback start its u,
+//!   current positions, forces, body forces and work record;
 //! - FNV-1a 64 of every byte before it.
 //!
 //! Written atomically (temp file + rename): the file on disk is always a whole checkpoint.
@@ -231,8 +233,15 @@ fn in_step<const D: usize>(driver: &DriverState<D>) -> Option<&StepInProgress<D>
 
 /// The header's word for the load step in progress (see the module docs).
 fn in_step_kind<const D: usize>(driver: &DriverState<D>) -> u64 {
-    in_step(driver).map_or(0, |p| 1 + p.relaxation.fallback_start.is_some() as u64)
+    in_step(driver).map_or(0, |p| match p.relaxation.fallback_start {
+        _ if !p.direction.is_empty() => NCG_IN_STEP,
+        Some(_) => 2,
+        None => 1,
+    })
 }
+
+/// The header's word for a load step paused inside an NCG minimisation.
+const NCG_IN_STEP: u64 = 3;
 
 fn put_record<const D: usize>(w: &mut impl Write, r: &WorkRecord<D>) -> io::Result<()> {
     put_f64s(w, &r.history)?;
@@ -251,12 +260,21 @@ fn put_in_step<const D: usize>(w: &mut impl Write, p: &StepInProgress<D>) -> io:
         r.broken,
         r.residual.to_bits(),
         p.relaxation.iterations,
-        p.relaxation.start_residual.to_bits(),
+        if p.direction.is_empty() {
+            p.relaxation.start_residual.to_bits()
+        } else {
+            p.relaxation.since_restart
+        },
     ];
     for x in scalars {
         w.write_all(&x.to_le_bytes())?;
     }
-    for a in [&p.u0, &p.load0, &p.velocity, &p.previous_acceleration] {
+    let relaxation = if p.direction.is_empty() {
+        vec![&p.velocity, &p.previous_acceleration]
+    } else {
+        vec![&p.direction]
+    };
+    for a in [&p.u0, &p.load0].into_iter().chain(relaxation) {
         put_vectors(w, a)?;
     }
     put_record(w, &p.record)?;
@@ -614,7 +632,7 @@ struct Head<const D: usize> {
     /// Sizes of the file's arrays (its history words may be a record this build reads past).
     sizes: Sizes,
     impactors: usize,
-    /// The load step in progress (the header's word: 0, 1 or 2).
+    /// The load step in progress (the header's word: 0 to 3).
     in_step: u64,
     /// Where the arrays begin.
     arrays: u64,
@@ -673,6 +691,7 @@ impl<const D: usize> Head<D> {
         let record = (8 * (s.history + s.previous * D + s.matrices)) as u64;
         let len = match self.in_step {
             0 => 0,
+            NCG_IN_STEP => (8 * IN_STEP_SCALARS) as u64 + 3 * vectors + record,
             kind => {
                 let fallback = if kind == 2 { 4 * vectors + record } else { 0 };
                 (8 * IN_STEP_SCALARS) as u64 + 4 * vectors + record + fallback
@@ -757,10 +776,10 @@ fn read_head<const D: usize>(
     // Format 4 has no load step in progress, nor the Gershgorin scalar; format 5 no spectrum.
     let pauses = format >= 5;
     let in_step = if pauses { r.u64()? } else { 0 };
-    if in_step > 2 {
+    if in_step > NCG_IN_STEP {
         return Err(CheckpointError::Corrupt {
             path: path.to_path_buf(),
-            what: format!("its load step in progress is marked {in_step} (0, 1 or 2 expected)"),
+            what: format!("its load step in progress is marked {in_step} (0 to 3 expected)"),
         });
     }
     // A paused load step's work record has the state's history words.
@@ -960,7 +979,7 @@ pub fn restore<const D: usize>(
     with_predictor(&mut head, displacements);
     head.driver.impactors = read_impactors(&mut r, head.impactors)?;
     if head.in_step != 0 {
-        let p = read_in_step(&mut r, state, head.in_step == 2)?;
+        let p = read_in_step(&mut r, state, head.in_step)?;
         if let Some(m) = head.driver.quasi_static.as_mut() {
             m.in_step = Some(Box::new(p));
         }
@@ -972,7 +991,7 @@ pub fn restore<const D: usize>(
 fn read_in_step<const D: usize>(
     r: &mut Reader<impl Read>,
     state: &State<D>,
-    with_fallback_start: bool,
+    kind: u64,
 ) -> Result<StepInProgress<D>, CheckpointError> {
     let n = state.u.len();
     let vectors = |r: &mut Reader<_>| -> Result<Vec<Vector<D>>, CheckpointError> {
@@ -987,11 +1006,21 @@ fn read_in_step<const D: usize>(
         broken: r.u64()?,
         residual: r.f64()?,
     };
-    let (iterations, start_residual) = (r.u64()?, r.f64()?);
+    let (iterations, last) = (r.u64()?, r.u64()?);
     let (u0, load0) = (vectors(r)?, vectors(r)?);
-    let (velocity, previous_acceleration) = (vectors(r)?, vectors(r)?);
+    let ncg = kind == NCG_IN_STEP;
+    let (start_residual, since_restart) = if ncg {
+        (0.0, last)
+    } else {
+        (f64::from_bits(last), 0)
+    };
+    let (velocity, previous_acceleration, direction) = if ncg {
+        (Vec::new(), Vec::new(), vectors(r)?)
+    } else {
+        (vectors(r)?, vectors(r)?, Vec::new())
+    };
     let record = read_record(r, state)?;
-    let fallback_start = if with_fallback_start {
+    let fallback_start = if kind == 2 {
         Some(RelaxationStart {
             u: vectors(r)?,
             current: vectors(r)?,
@@ -1012,10 +1041,12 @@ fn read_in_step<const D: usize>(
         relaxation: RelaxationPaused {
             iterations,
             start_residual,
+            since_restart,
             fallback_start,
         },
         velocity,
         previous_acceleration,
+        direction,
     })
 }
 
@@ -1171,6 +1202,7 @@ mod tests {
             relaxation: RelaxationPaused {
                 iterations: 97,
                 start_residual: 0.125,
+                since_restart: 0,
                 fallback_start: Some(RelaxationStart {
                     u: vectors(5.0),
                     current: vectors(6.0),
@@ -1181,6 +1213,7 @@ mod tests {
             },
             velocity: vectors(3.0),
             previous_acceleration: vectors(4.0),
+            direction: Vec::new(),
         };
         let driver = DriverState {
             quasi_static: Some(QuasiStaticMemory {
@@ -1211,6 +1244,17 @@ mod tests {
         }
         write(&path, &origin, &saved, &shorter).unwrap();
         assert_eq!(restore(&path, &origin, &mut now).unwrap(), shorter);
+        // A paused NCG minimisation keeps its direction and restart count instead.
+        let mut ncg = shorter.clone();
+        if let Some(p) = ncg.quasi_static.as_mut().and_then(|m| m.in_step.as_mut()) {
+            p.relaxation.start_residual = 0.0;
+            p.relaxation.since_restart = 41;
+            p.velocity.clear();
+            p.previous_acceleration.clear();
+            p.direction = vectors(10.0);
+        }
+        write(&path, &origin, &saved, &ncg).unwrap();
+        assert_eq!(restore(&path, &origin, &mut now).unwrap(), ncg);
         let parts = Parts::<2>::open(&path, &origin, &Sizes::of(&saved, &shorter));
         assert!(
             matches!(parts, Err(CheckpointError::InsideLoadStep(_))),

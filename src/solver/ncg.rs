@@ -16,6 +16,7 @@
 //! (`QuasiStaticSettings::exact_line_search` keeps that search). The minimiser stops on the
 //! caller's residual test either way: the equilibria satisfy the same tolerance. Bonds do not break during a minimisation (the caller freezes the damage state).
 
+use super::quasi_static_memory::Pause;
 use super::ranks::{chunked_sums, Share};
 use super::{Simulation, StepError};
 use crate::material::Material;
@@ -31,8 +32,28 @@ const CHUNK: usize = 4096;
 pub struct Ncg<const D: usize> {
     /// 1/(V_i λ_i) per node: the inverse of the diagonal stiffness bound.
     inverse_diagonal: Vec<f64>,
-    direction: Vec<Vector<D>>,
+    /// The search direction (a paused minimisation continues along it: a checkpoint keeps it).
+    pub(super) direction: Vec<Vector<D>>,
     exact_line_search: bool,
+}
+
+/// Where a minimisation continues from, when it paused: its force evaluations so far and its
+/// iterations since the direction was last restarted (the direction is `Ncg::direction`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Continued {
+    pub evaluations: u64,
+    pub since_restart: u64,
+}
+
+/// How a minimisation ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Minimised {
+    /// At the caller's equilibrium, after this many force evaluations.
+    Converged(u64),
+    /// `max_evaluations` reached: the state is the best found so far.
+    Exhausted,
+    /// Paused between two iterations, as `pause` asked; the next call continues from here.
+    Paused(Continued),
 }
 
 impl<const D: usize> Ncg<D> {
@@ -54,15 +75,20 @@ impl<const D: usize> Ncg<D> {
         }
     }
 
-    /// Minimises from the current state until `converged(sim, evaluations so far)`; returns the force
-    /// evaluations used, or the error of a failed evaluation. `max_evaluations` bounds the
-    /// work; on reaching it the state is the best found so far and `Ok(None)` is returned.
+    /// Minimises from the current state until `converged(sim, evaluations so far)`, or, with
+    /// `continued`, goes on with the minimisation that paused there (the state and the
+    /// direction as it left them). `max_evaluations` bounds the work; `pause` may stop it
+    /// between two iterations (never before the first of this call). A pause changes no
+    /// number: an iteration starts from the residual of the state's forces, its
+    /// preconditioned copy and their product, all recomputed alike from the state.
     pub fn minimise<M: Material<D>>(
         &mut self,
         sim: &mut Simulation<D, M>,
         max_evaluations: u64,
+        continued: Option<Continued>,
+        pause: Option<Pause>,
         mut converged: impl FnMut(&Simulation<D, M>, u64) -> bool,
-    ) -> Result<Option<u64>, StepError> {
+    ) -> Result<Minimised, StepError> {
         let share = sim.share.clone();
         let dot = |a: &[Vector<D>], b: &[Vector<D>]| dot(share.as_deref(), a, b);
         let n_free = sim.constrained_mask[..sim.owned()]
@@ -73,15 +99,26 @@ impl<const D: usize> Ncg<D> {
             .as_deref()
             .map_or(n_free, |s| s.ranks.sum_u64(n_free as u64) as usize)
             .max(1);
-        let mut evaluations = 0u64;
         let mut r = self.residual(sim);
         let mut s = self.precondition(&r);
-        self.direction.clone_from(&s);
+        let (mut evaluations, mut since_restart) = match continued {
+            Some(c) => (c.evaluations, c.since_restart as usize),
+            None => {
+                self.direction.clone_from(&s);
+                (0, 0)
+            }
+        };
+        let entered = evaluations;
         let mut delta_new = dot(&r, &s);
-        let mut since_restart = 0usize;
         while !converged(sim, evaluations) {
             if evaluations >= max_evaluations {
-                return Ok(None);
+                return Ok(Minimised::Exhausted);
+            }
+            if evaluations > entered && pause.is_some_and(|p| p.due(evaluations - entered)) {
+                return Ok(Minimised::Paused(Continued {
+                    evaluations,
+                    since_restart: since_restart as u64,
+                }));
             }
             // Secant line search on η(α) = Π'(u + αd)·d = −r(u + αd)·d: a probe at σ0, then
             // the root of the line through the last two points, until the step is negligible.
@@ -135,7 +172,7 @@ impl<const D: usize> Ncg<D> {
                     .for_each(|(d, s)| *d = s + *d * beta);
             }
         }
-        Ok(Some(evaluations))
+        Ok(Minimised::Converged(evaluations))
     }
 
     /// u += α d on the free components, then the forces there.

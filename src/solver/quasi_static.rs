@@ -68,7 +68,7 @@
 //! last decided equilibrium to this one (seed 002 Eq. 6 by the trapezoidal rule along the
 //! equilibrium path; exact for a proportional elastic step).
 
-use super::ncg::Ncg;
+use super::ncg::{Continued, Minimised, Ncg};
 pub use super::quasi_static_memory::{Pause, QuasiStaticMemory, StepInProgress};
 use super::quasi_static_memory::{RelaxationPaused, RelaxationStart, WorkRecord};
 use super::ranks::{chunked_sums, ordered_folds, ordered_sum};
@@ -250,9 +250,9 @@ pub struct QuasiStatic<const D: usize> {
     pub setup_evaluations: u64,
     /// A relaxation with the spectral masses failed: Gershgorin's are in use for good.
     fell_back: bool,
-    /// When an ADR relaxation pauses for a checkpoint (never when unset).
+    /// When a relaxation pauses for a checkpoint (never when unset).
     pub pause: Option<Pause>,
-    /// The load step in progress may pause: ADR, one process, and no state kept to undo the
+    /// The load step in progress may pause: one process, and no state kept to undo the
     /// step (a step that may still be halved).
     may_pause: bool,
     /// The load step paused inside a relaxation, continued by the next `advance`.
@@ -386,14 +386,19 @@ impl<const D: usize> QuasiStatic<D> {
     }
 
     /// The memory a checkpoint inside a paused load step keeps, with the step and its ADR
-    /// velocities moved out rather than copied: the step's work records hold two words of
+    /// velocities (or NCG direction) moved out rather than copied: the step's work records hold two words of
     /// history per bond each, and a copy of them at every checkpoint took a third more
     /// memory than the relaxation itself (22.0 GB against 14.5 GB on seed 002's 3D plate at
     /// Δx = 60 µm). `take_back` returns them once the checkpoint is written.
     pub fn lend_memory(&mut self) -> QuasiStaticMemory<D> {
         let in_step = self.paused.take().map(|mut p| {
-            p.velocity = std::mem::take(&mut self.velocity);
-            p.previous_acceleration = std::mem::take(&mut self.previous_acceleration);
+            match self.ncg.as_mut() {
+                Some(ncg) => p.direction = std::mem::take(&mut ncg.direction),
+                None => {
+                    p.velocity = std::mem::take(&mut self.velocity);
+                    p.previous_acceleration = std::mem::take(&mut self.previous_acceleration);
+                }
+            }
             p
         });
         QuasiStaticMemory {
@@ -405,8 +410,13 @@ impl<const D: usize> QuasiStatic<D> {
     /// Takes back the paused step `lend_memory` lent (or a checkpoint kept).
     pub fn take_back(&mut self, in_step: Option<Box<StepInProgress<D>>>) {
         self.paused = in_step.map(|mut p| {
-            self.velocity = std::mem::take(&mut p.velocity);
-            self.previous_acceleration = std::mem::take(&mut p.previous_acceleration);
+            match self.ncg.as_mut() {
+                Some(ncg) => ncg.direction = std::mem::take(&mut p.direction),
+                None => {
+                    self.velocity = std::mem::take(&mut p.velocity);
+                    self.previous_acceleration = std::mem::take(&mut p.previous_acceleration);
+                }
+            }
             p
         });
     }
@@ -697,6 +707,7 @@ impl<const D: usize> QuasiStatic<D> {
                     relaxation: RelaxationPaused::default(),
                     velocity: Vec::new(),
                     previous_acceleration: Vec::new(),
+                    direction: Vec::new(),
                 });
                 (p, None)
             }
@@ -788,15 +799,25 @@ impl<const D: usize> QuasiStatic<D> {
         let tol = self.settings.tolerance;
         if let Some(ncg) = self.ncg.as_mut() {
             let (largest, max) = (self.largest_load, self.settings.max_iterations);
+            let continued = resume.map(|r| Continued {
+                evaluations: r.iterations,
+                since_restart: r.since_restart,
+            });
+            let pause = self.pause.filter(|_| self.may_pause);
             let ticker = &mut self.ticker;
-            let found = ncg.minimise(sim, max, |s, evaluations| {
+            let found = ncg.minimise(sim, max, continued, pause, |s, evaluations| {
                 let residual = relative_residual(s, largest).0;
                 ticker.tick(evaluations, residual);
                 residual <= tol
             })?;
             return match found {
-                Some(evaluations) => Ok(Relaxed::Converged(evaluations)),
-                None => {
+                Minimised::Converged(evaluations) => Ok(Relaxed::Converged(evaluations)),
+                Minimised::Paused(c) => Ok(Relaxed::Paused(Box::new(RelaxationPaused {
+                    iterations: c.evaluations,
+                    since_restart: c.since_restart,
+                    ..RelaxationPaused::default()
+                }))),
+                Minimised::Exhausted => {
                     let residual = self.residual(sim).0;
                     Err(self.not_converged(sim, max, residual))
                 }
@@ -993,7 +1014,7 @@ impl<const D: usize> QuasiStatic<D> {
                 return Ok(Relaxed::Paused(Box::new(RelaxationPaused {
                     iterations: n,
                     start_residual,
-                    fallback_start: None,
+                    ..RelaxationPaused::default()
                 })));
             }
             // The first iteration starts from rest: v^{½} = F^0/(2λ).

@@ -3,11 +3,13 @@
 //! paused load step, takes the same iterations as the run that did not stop.
 //!
 //! A load step can run for hours (the elastic preload of a million-node plate relaxes from
-//! rest through some ten thousand ADR iterations), longer than a session or a job's wall time.
-//! So an ADR relaxation may pause between two iterations (`Pause`): the solver returns with
-//! the step in progress kept (`StepInProgress`), the run writes a checkpoint, and the next
-//! call continues the iteration where it stopped. A pause changes no number: the iteration
-//! reads only the state and what `StepInProgress` and the ADR velocities keep.
+//! rest through some ten thousand ADR iterations; a crack crossing a 200 000-node plate in one
+//! load step takes some hundred thousand conjugate-gradient evaluations), longer than a
+//! session or a job's wall time. So a relaxation, ADR or NCG, may pause between two
+//! iterations (`Pause`): the solver returns with the step in progress kept
+//! (`StepInProgress`), the run writes a checkpoint, and the next call continues the iteration
+//! where it stopped. A pause changes no number: the iteration reads only the state and what
+//! `StepInProgress` keeps (ADR's velocities, NCG's search direction).
 
 use crate::math::Vector;
 use crate::state::State;
@@ -35,7 +37,7 @@ pub struct QuasiStaticMemory<const D: usize> {
     pub in_step: Option<Box<StepInProgress<D>>>,
 }
 
-/// When an ADR relaxation pauses, between two iterations, for a checkpoint.
+/// When a relaxation pauses, between two iterations, for a checkpoint.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Pause {
     /// At the first iteration that ends after this instant (the checkpoints' wall clock).
@@ -55,10 +57,11 @@ impl Pause {
     }
 }
 
-/// A load step paused inside an ADR relaxation: what its continuation reads besides the
-/// state (the step's start, what it took so far, the work record of its last decision) and
-/// the relaxation's own (its iterations, its first residual, the ADR velocities and last
-/// accelerations, and its start when a failure would take it again with other masses).
+/// A load step paused inside a relaxation: what its continuation reads besides the state
+/// (the step's start, what it took so far, the work record of its last decision) and the
+/// relaxation's own (its iterations; for ADR its first residual, velocities and last
+/// accelerations, and its start when a failure would take it again with other masses; for
+/// NCG its search direction and the iterations since its last restart).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepInProgress<const D: usize> {
     /// The load parameter at the step's start (the last committed one) and at its end.
@@ -78,15 +81,20 @@ pub struct StepInProgress<const D: usize> {
     /// in its working arrays; filled in a checkpoint's).
     pub velocity: Vec<Vector<D>>,
     pub previous_acceleration: Vec<Vector<D>>,
+    /// NCG's search direction per node (empty for ADR, and in the solver's own copy).
+    pub direction: Vec<Vector<D>>,
 }
 
-/// A relaxation paused between two iterations (its ADR velocities and accelerations are kept
-/// beside it: in the solver's working arrays, or in `StepInProgress`).
+/// A relaxation paused between two iterations (its ADR velocities and accelerations, or its
+/// NCG search direction, are kept beside it: in the solver's working arrays, or in
+/// `StepInProgress`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RelaxationPaused<const D: usize> {
-    /// Its iterations so far, and its residual at its start.
+    /// Its iterations so far (NCG: force evaluations), and its residual at its start (ADR).
     pub iterations: u64,
     pub start_residual: f64,
+    /// NCG: its iterations since the direction was last restarted (0 for ADR).
+    pub since_restart: u64,
     /// Its start, with the spectral masses: a relaxation that fails with them is taken again
     /// from there with Gershgorin's.
     pub fallback_start: Option<RelaxationStart<D>>,

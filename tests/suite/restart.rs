@@ -383,8 +383,30 @@ fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
 /// count), and so does the step (its decisions so far, its work record, its start).
 #[test]
 fn a_run_stopped_inside_a_load_step_continues_byte_identical() {
-    let dir = scratch("inside-step");
-    let text = quasi_static_text(2e-5, "load_steps = 10\ntolerance = 1e-4", "")
+    assert_stopped_inside_the_crack_step_continues("inside-step-adr", "", 1);
+}
+
+/// As `a_run_stopped_inside_a_load_step_continues_byte_identical`, with conjugate gradients:
+/// the minimisation continues along its search direction, with its restart count and its
+/// force evaluations so far (a pause after every iteration, each of two force evaluations or
+/// more).
+#[test]
+fn a_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_identical() {
+    assert_stopped_inside_the_crack_step_continues("inside-step-ncg", "method = \"ncg\"", 2);
+}
+
+/// Runs the fracturing quasi-static plate with `method` whole, then pausing after every
+/// iteration (`evaluations_per_pause` force evaluations, or more, apart) and stopped about a
+/// third of the way into the load step in which the crack runs; continued, it must leave the
+/// same files.
+fn assert_stopped_inside_the_crack_step_continues(
+    name: &str,
+    method: &str,
+    evaluations_per_pause: u64,
+) {
+    let dir = scratch(name);
+    let solver = format!("load_steps = 10\ntolerance = 1e-4\n{method}");
+    let text = quasi_static_text(2e-5, &solver, "")
         .replace("history_interval = 7", "history_interval = 1");
     let ld = load(&dir, "qs.toml", &text);
     let (whole, parts) = (dir.join("whole"), dir.join("parts"));
@@ -409,11 +431,12 @@ fn a_run_stopped_inside_a_load_step_continues_byte_identical() {
         .max_by_key(|&(_, n)| n)
         .unwrap();
     assert!(crack > 0 && most > 100, "{iterations:?}");
-    // Every iteration but a relaxation's first pauses: the stop falls in the crack's step.
+    // Every iteration but a relaxation's first pauses: at most this many pauses come before
+    // the crack's step, and the stop falls in it.
     let before: u64 = iterations[..crack].iter().sum();
     let control = RunControl {
         checkpoint_every: Some(std::time::Duration::ZERO),
-        stop_at_pause: Some(before + most / 2),
+        stop_at_pause: Some((before + most / 3) / evaluations_per_pause),
         ..RunControl::default()
     };
     let stopped = run_with(&ld, &options(&parts, Some(1)), &control);
