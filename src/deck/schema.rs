@@ -1053,6 +1053,10 @@ pub struct CrackPathDeck {
     /// Bands a branch's angle is fitted over.
     #[serde(default = "default_fit_bands")]
     pub fit_bands: usize,
+    /// Only the damaged nodes inside this shape count (absent: the whole body): the crack
+    /// the analysis follows, apart from others elsewhere in the body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<Shape>,
 }
 
 fn default_path_axis() -> Component {

@@ -397,6 +397,9 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     }
     if let Some(path) = deck.analysis.as_ref().and_then(|a| a.crack_path.as_ref()) {
         validate_crack_path(&mut out, path, d);
+        if let Some(region) = &path.region {
+            check_shape(&mut out, "analysis.crack_path.region", region);
+        }
     }
     if let Some(surface) = deck
         .analysis

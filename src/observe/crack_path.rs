@@ -12,6 +12,7 @@ use super::observer::{Every, Observer, StepView};
 use super::resume::{cannot_continue, rows_up_to};
 use crate::analysis::{compare_paths, crack_path, find_forks, Fork, ForkBranch, PathComparison};
 use crate::atomic_file::write_atomic;
+use crate::geometry::Shape;
 use crate::math::Vector;
 use std::cell::RefCell;
 use std::io;
@@ -80,6 +81,8 @@ pub struct PathSettings {
     pub interval: u64,
     pub link: f64,
     pub fit_bands: usize,
+    /// Only the damaged nodes inside it count (none: the whole body).
+    pub region: Option<Shape>,
 }
 
 pub struct CrackPath {
@@ -89,6 +92,8 @@ pub struct CrackPath {
     forks: Vec<(f64, u64, Fork)>,
     path: Vec<(f64, f64)>,
     report: Rc<RefCell<Option<PathReport>>>,
+    /// Per node, whether it lies in the region (found at the first observation).
+    inside: Option<Vec<bool>>,
 }
 
 impl CrackPath {
@@ -100,6 +105,7 @@ impl CrackPath {
             forks: Vec::new(),
             path: Vec::new(),
             report: Rc::new(RefCell::new(None)),
+            inside: None,
         }
     }
 
@@ -164,17 +170,26 @@ impl CrackPath {
         }
     }
 
+    /// The path's points with the length along it from its first point (the polyline's).
     fn render_path(&self) -> String {
-        let mut s = String::from("x,y\n");
-        for &(a, b) in &self.path {
+        let mut s = String::from("x,y,length\n");
+        let mut length = 0.0;
+        for (k, &(a, b)) in self.path.iter().enumerate() {
+            if k > 0 {
+                let (a0, b0) = self.path[k - 1];
+                length += (a - a0).hypot(b - b0);
+            }
             let (x, y) = if self.settings.axis == 0 {
                 (a, b)
             } else {
                 (b, a)
             };
-            push_number(&mut s, x);
-            s.push(',');
-            push_number(&mut s, y);
+            for (c, v) in [x, y, length].into_iter().enumerate() {
+                if c > 0 {
+                    s.push(',');
+                }
+                push_number(&mut s, v);
+            }
             s.push('\n');
         }
         s
@@ -234,7 +249,21 @@ impl<const D: usize> Observer<D> for CrackPath {
         let s = self.settings.clone();
         let mut direction = Vector::<2>::zeros();
         direction[s.axis] = 1.0;
-        let damage = view.damage();
+        let inside = self.inside.get_or_insert_with(|| {
+            let region = s.region.as_ref();
+            positions
+                .iter()
+                .map(|p| region.is_none_or(|r| r.contains(p.as_slice())))
+                .collect()
+        });
+        // Outside the region a node counts as undamaged.
+        let damage: Vec<f64> = view
+            .damage()
+            .iter()
+            .zip(inside.iter())
+            .map(|(&d, &i)| if i { d } else { 0.0 })
+            .collect();
+        let damage = damage.as_slice();
         let forks = find_forks(
             &positions,
             damage,
@@ -315,6 +344,7 @@ mod tests {
             interval: 1,
             link: 0.5,
             fit_bands: 3,
+            region: None,
         }
     }
 

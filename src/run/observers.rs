@@ -325,6 +325,7 @@ fn crack_path<const D: usize>(
             interval: p.interval,
             link: p.link.unwrap_or(3.0 * h),
             fit_bands: p.fit_bands,
+            region: p.region.clone(),
         },
     )
 }

@@ -19,8 +19,17 @@ fn a_straight_crack_follows_the_notch_line_and_does_not_fork() {
         let dir = out_dir(&format!("path-{tag}"));
         let summary = run_in(&plate_of(PMMA_PMB, &analysis), &dir, 2);
         let (header, points) = read_csv(&dir.join("crack_path.csv"));
-        assert_eq!(header, ["x", "y"]);
+        assert_eq!(header, ["x", "y", "length"]);
         assert!(points.len() >= 10, "{} path points", points.len());
+        // The length along a straight path is its span (each bin's point within a spacing
+        // of the line adds at most a few parts in a thousand).
+        let (first, last) = (&points[0], &points[points.len() - 1]);
+        let span = num(&last[0]) - num(&first[0]);
+        let length = num(&last[2]);
+        assert!(
+            num(&first[2]) == 0.0 && length >= span && length < 1.02 * span,
+            "length {length} m along a path spanning {span} m"
+        );
         for p in &points {
             assert!(
                 (num(&p[1]) - 2e-3).abs() < DX,
@@ -41,6 +50,35 @@ fn a_straight_crack_follows_the_notch_line_and_does_not_fork() {
         assert!(dir.join("crack_path_comparison.csv").is_file());
         std::fs::remove_dir_all(&dir).ok();
     }
+}
+
+/// With a region, only the damaged nodes inside it make the path: the crack cut off at
+/// x = 4 mm ends there, shorter by what lies beyond (the crack reaches x ≈ 5.7 mm).
+#[test]
+fn a_region_keeps_the_path_inside_it() {
+    let path = |region: &str, tag: &str| {
+        let analysis = format!("{TRACK}\n[analysis.crack_path]\n{region}\n");
+        let dir = out_dir(&format!("path-region-{tag}"));
+        run_in(&plate_of(PMMA_PMB, &analysis), &dir, 2);
+        let (_, points) = read_csv(&dir.join("crack_path.csv"));
+        let _ = std::fs::remove_dir_all(&dir);
+        let xs: Vec<f64> = points.iter().map(|p| num(&p[0])).collect();
+        let length = num(&points[points.len() - 1][2]);
+        (xs, length)
+    };
+    let (whole, whole_length) = path("", "whole");
+    let region = "region = { type = \"rectangle\", min = [0.0, 0.0], max = [0.004, 0.004] }";
+    let (cut, cut_length) = path(region, "cut");
+    let largest = |xs: &[f64]| xs.iter().cloned().fold(f64::MIN, f64::max);
+    assert!(
+        largest(&whole) > 5e-3,
+        "the crack runs past x = 5 mm: {whole:?}"
+    );
+    assert!(largest(&cut) < 4e-3, "{cut:?}");
+    assert!(
+        cut_length < whole_length - 1e-3,
+        "{cut_length} m inside the region against {whole_length} m"
+    );
 }
 
 #[test]
