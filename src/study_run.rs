@@ -232,11 +232,12 @@ fn point_deck(ls: &LoadedStudy, values: &[f64]) -> Result<String, String> {
     Ok(text)
 }
 
-/// The numbers set with the factors (`with`) at a design point: each linked key with its
-/// value at the position of its factor's value.
+/// The numbers set with the factors at a design point: each `also` key with its factor's
+/// value, each `with` key with its value at the position of its factor's value.
 fn linked_numbers<'a>(ls: &'a LoadedStudy, values: &[f64]) -> Vec<(&'a str, f64)> {
     let mut numbers = Vec::new();
     for (f, v) in ls.study.factors.iter().zip(values) {
+        numbers.extend(f.also.iter().map(|key| (key.as_str(), *v)));
         let Some(p) = f
             .values
             .as_ref()

@@ -1,12 +1,15 @@
 //! Pre-cracks as bond filters: a bond whose reference segment crosses the crack is never created.
 
-use serde::{Deserialize, Serialize};
+use crate::geometry::segment_end;
+use serde::{Deserialize, Deserializer, Serialize};
 
 /// A pre-crack surface.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Precrack {
-    /// 2D: the line segment from `start` to `end`.
+    /// 2D: the line segment from `start` to `end` (a deck may give `length` and `angle`
+    /// instead of `end`: `geometry::segment_end`).
+    #[serde(deserialize_with = "segment_from_deck")]
     Segment { start: [f64; 2], end: [f64; 2] },
     /// 3D: the planar parallelogram `origin + a·edge1 + b·edge2`, a, b ∈ [0, 1].
     Rectangle {
@@ -14,6 +17,23 @@ pub enum Precrack {
         edge1: [f64; 3],
         edge2: [f64; 3],
     },
+}
+
+/// A segment as a deck writes it (`end`, or `length` and `angle`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SegmentDeck {
+    start: [f64; 2],
+    end: Option<[f64; 2]>,
+    length: Option<f64>,
+    angle: Option<f64>,
+}
+
+fn segment_from_deck<'de, D: Deserializer<'de>>(d: D) -> Result<([f64; 2], [f64; 2]), D::Error> {
+    let s = SegmentDeck::deserialize(d)?;
+    let end = segment_end(s.start, s.end, s.length, s.angle)
+        .map_err(|e| serde::de::Error::custom(format!("segment: {e}")))?;
+    Ok((s.start, end))
 }
 
 impl Precrack {
@@ -133,6 +153,29 @@ mod tests {
             !c.cuts(&[0.5, 0.0], &[0.5, 0.2]),
             "endpoint on the crack does not cut"
         );
+    }
+
+    /// A segment given by its length and angle cuts the bonds the segment to its end cuts:
+    /// 1 long, straight down from (0.5, 0.5).
+    #[test]
+    fn segment_by_length_and_angle_is_the_segment_to_its_end() {
+        #[derive(serde::Deserialize)]
+        struct Deck {
+            precracks: Vec<Precrack>,
+        }
+        let text =
+            "[[precracks]]\ntype = \"segment\"\nstart = [0.5, 0.5]\nlength = 1.0\nangle = -90.0\n";
+        let deck: Deck = toml::from_str(text).unwrap();
+        let Precrack::Segment { start, end } = deck.precracks[0] else {
+            panic!("a segment");
+        };
+        assert_eq!(start, [0.5, 0.5]);
+        assert!(
+            (end[0] - 0.5).abs() < 1e-15 && (end[1] + 0.5).abs() < 1e-15,
+            "{end:?}"
+        );
+        assert!(deck.precracks[0].cuts(&[0.4, 0.0], &[0.6, 0.0]));
+        assert!(!deck.precracks[0].cuts(&[0.4, -0.6], &[0.6, -0.6]));
     }
 
     #[test]

@@ -357,6 +357,7 @@ impl LoadedCase {
                         },
                     })
                     .collect(),
+                also: Vec::new(),
             })
             .collect::<Vec<_>>();
         let keys = factors.iter().map(|f| KeyPath::parse(&f.key)).collect();

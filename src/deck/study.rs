@@ -102,6 +102,11 @@ pub struct FactorSpec {
     /// of the factor's value (a series in the horizon with the load steps each horizon needs).
     #[serde(default)]
     pub with: Vec<LinkedSpec>,
+    /// Other numbers of the deck set to the factor's own value in every run (either method):
+    /// one input written at two places, e.g. a notch's length in its slot and in the bond
+    /// filter along it (seed 004's l_c).
+    #[serde(default)]
+    pub also: Vec<String>,
 }
 
 /// A number of the deck set with a sweep factor, one value per value of the factor.
@@ -376,6 +381,16 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
         if study.factors[..k].iter().any(|g| g.key == f.key) {
             issue(at("key"), format!("`{}` is varied twice", f.key));
         }
+        for (j, key) in f.also.iter().enumerate() {
+            let at = format!("factors[{k}].also[{j}]");
+            if let Err(e) = number_at(base_src, &KeyPath::parse(key)) {
+                issue(at.clone(), e);
+            }
+            let varied = study.factors.iter().any(|g| &g.key == key);
+            if varied || linked(study).filter(|&o| o == key).count() > 1 {
+                issue(at, format!("`{key}` is varied twice"));
+            }
+        }
         for (j, l) in f.with.iter().enumerate() {
             let at = |key: &str| format!("factors[{k}].with[{j}].{key}");
             if let Err(e) = number_at(base_src, &KeyPath::parse(&l.key)) {
@@ -506,12 +521,12 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
     issues
 }
 
-/// The keys set with the factors (`with`), in order.
+/// The keys set with the factors (`with`, `also`), in order.
 fn linked(study: &StudyFile) -> impl Iterator<Item = &str> {
-    study
-        .factors
-        .iter()
-        .flat_map(|f| f.with.iter().map(|l| l.key.as_str()))
+    study.factors.iter().flat_map(|f| {
+        let with = f.with.iter().map(|l| l.key.as_str());
+        with.chain(f.also.iter().map(String::as_str))
+    })
 }
 
 /// What is wrong with one output's keys, each as (key, message): the file, then the keys its

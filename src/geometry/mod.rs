@@ -16,8 +16,48 @@ pub mod boundary;
 pub mod point_cloud;
 pub mod pores;
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use thiserror::Error;
+
+/// A 2D segment's far end as a deck gives it: `end`, or `length` and `angle` (degrees,
+/// counter-clockwise from +x) from `start`, so that a notch's length and angle are one number
+/// each (seed 004 Table 2's l_c and α_c, the factors of its screening).
+pub fn segment_end(
+    start: [f64; 2],
+    end: Option<[f64; 2]>,
+    length: Option<f64>,
+    angle: Option<f64>,
+) -> Result<[f64; 2], String> {
+    match (end, length, angle) {
+        (Some(end), None, None) => Ok(end),
+        (None, Some(length), Some(angle)) => {
+            let (sin, cos) = angle.to_radians().sin_cos();
+            Ok([start[0] + length * cos, start[1] + length * sin])
+        }
+        _ => Err(
+            "expected either `end` = [x, y] or both `length` (m) and `angle` (degrees from +x)"
+                .into(),
+        ),
+    }
+}
+
+/// A slot as a deck writes it (`end`, or `length` and `angle`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SlotDeck {
+    start: [f64; 2],
+    end: Option<[f64; 2]>,
+    length: Option<f64>,
+    angle: Option<f64>,
+    width: f64,
+}
+
+fn slot_from_deck<'de, D: Deserializer<'de>>(d: D) -> Result<([f64; 2], [f64; 2], f64), D::Error> {
+    let s = SlotDeck::deserialize(d)?;
+    let end = segment_end(s.start, s.end, s.length, s.angle)
+        .map_err(|e| serde::de::Error::custom(format!("slot: {e}")))?;
+    Ok((s.start, end, s.width))
+}
 
 /// Why a shape is unusable; the message is meant for the person who wrote the deck.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -55,6 +95,8 @@ pub enum Shape {
     Polygon { vertices: Vec<[f64; 2]> },
     /// 2D rectangle of `width` centred on the segment from `start` to `end`, square at both
     /// ends: a notch of finite width (seed 004's b_c), cut out of a body with `difference`.
+    /// A deck may give `length` and `angle` instead of `end` (`segment_end`).
+    #[serde(deserialize_with = "slot_from_deck")]
     Slot {
         start: [f64; 2],
         end: [f64; 2],
@@ -1061,6 +1103,36 @@ mod tests {
             subtract: vec![slot.clone()],
         };
         assert!(!plate.contains(&at(2.5, 0.0)) && plate.contains(&at(2.5, 0.3)));
+    }
+
+    /// A slot given by its length and angle is the slot to the end they point at: the 3-4-5
+    /// segment above, 5 long at atan2(4, 3) = 53.13°.
+    #[test]
+    fn slot_by_length_and_angle_ends_where_they_point() {
+        let angle = 4.0f64.atan2(3.0).to_degrees();
+        let text = format!(
+            "shape = {{ type = \"slot\", start = [1.0, 1.0], length = 5.0, angle = {angle}, width = 0.4 }}"
+        );
+        let Ok(Shape::Slot { start, end, width }) = from_toml(&text) else {
+            panic!("{text}");
+        };
+        assert_eq!((start, width), ([1.0, 1.0], 0.4));
+        assert!(
+            (end[0] - 4.0).abs() < 1e-12 && (end[1] - 5.0).abs() < 1e-12,
+            "{end:?}"
+        );
+        // Left of −x, 33° below it (seed 004's notch direction): 213° from +x.
+        let end = segment_end([0.0, 0.0], None, Some(2.0), Some(213.0)).unwrap();
+        let (c, s) = (33f64.to_radians().cos(), 33f64.to_radians().sin());
+        assert!((end[0] + 2.0 * c).abs() < 1e-12 && (end[1] + 2.0 * s).abs() < 1e-12);
+        for (end, length, angle) in [
+            (Some([1.0, 1.0]), Some(1.0), Some(0.0)),
+            (None, Some(1.0), None),
+            (None, None, Some(1.0)),
+            (None, None, None),
+        ] {
+            assert!(segment_end([0.0, 0.0], end, length, angle).is_err());
+        }
     }
 
     #[test]

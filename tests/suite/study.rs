@@ -226,6 +226,31 @@ with = [{ key = "material.youngs_modulus", values = [2.0e9, 1.0e9] }]
     let report = run_study(&ls, &options(&dir)).unwrap();
     let r: Vec<f64> = report.runs.iter().map(|r| r.outputs[0].unwrap()).collect();
     assert!((r[1] / r[0] - 1.0).abs() < 1e-4, "reactions {r:?}");
+    // A number set to the factor's own value (`also`): the modulus's value also becomes the
+    // density, which a quasi-static run does not read (a check of where the value goes, not
+    // a material), so the reaction still doubles with the modulus.
+    let dir = scratch("sweep-also");
+    let body = r#"method = "sweep"
+[[factors]]
+key = "material.youngs_modulus"
+values = [1.0e9, 2.0e9]
+also = ["material.density"]
+"#;
+    let ls = LoadedStudy::from_file(&study_file(&dir, body)).unwrap();
+    let report = run_study(&ls, &options(&dir)).unwrap();
+    let r: Vec<f64> = report.runs.iter().map(|r| r.outputs[0].unwrap()).collect();
+    assert!((r[1] / r[0] - 2.0).abs() < 1e-4, "reactions {r:?}");
+    for (k, value) in ["1.0e9", "2.0e9"].iter().enumerate() {
+        let deck =
+            std::fs::read_to_string(dir.join(format!("out/runs/run_{k:04}/deck.toml"))).unwrap();
+        let value: f64 = value.parse().unwrap();
+        let density = peridyn::deck::LoadedDeck::from_str(&deck, Path::new("deck.toml"))
+            .unwrap()
+            .deck
+            .material
+            .density();
+        assert_eq!(density, value, "run {k}");
+    }
 }
 
 #[test]
@@ -267,6 +292,14 @@ fn bad_study_files_are_refused_at_their_key() {
         (
             "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 1.0]\nwith = [{ key = \"material.youngs_modulus\", values = [1.0e9, 2.0e9] }]\n",
             "factors[0].values: a factor with numbers set with it (`with`) needs distinct values",
+        ),
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"material.density\"\nmin = 1.0\nmax = 2.0\nalso = [\"material.stiffness\"]\n",
+            "factors[0].also[0]: the deck has no number at `material.stiffness`",
+        ),
+        (
+            "method = \"morris\"\n[[factors]]\nkey = \"material.density\"\nmin = 1.0\nmax = 2.0\nalso = [\"material.density\"]\n",
+            "factors[0].also[0]: `material.density` is varied twice",
         ),
         (
             "method = \"morris\"\n[[factors]]\nkey = \"material.density\"\nmin = 1.0\nmax = 2.0\nwith = [{ key = \"material.youngs_modulus\", values = [1.0e9] }]\n",
