@@ -3,7 +3,9 @@
 //! series of one number (the paper's parameter or a convergence series), the outputs read from
 //! every run (a study's outputs), and the paper's results those outputs are compared with.
 //! Parsed and validated like a deck: every problem is named at its file, line and key. A case
-//! runs as a one-factor sweep study (`study_run`), which gives it resumption for free.
+//! runs as a one-factor sweep study (`study_run`), which gives it resumption for free; a
+//! screening case instead names a Morris study file, and its outputs are the screening's
+//! statistics (`screening_outputs`).
 
 use super::edit::number_at;
 use super::study::{FixedSpec, LinkedSpec, LoadedStudy, OutputSpec, StudyFile, StudyMethod};
@@ -22,8 +24,14 @@ pub struct CaseFile {
     /// Where in the paper: section, figure, table.
     pub section: String,
     /// The deck the runs start from, relative to the case file; none for a case whose rows
-    /// are all `not_run`.
+    /// are all `not_run`, or that reads a `screening`.
     pub deck: Option<PathBuf>,
+    /// A Morris study file (relative to the case file) whose screening the case reads instead
+    /// of a deck and a series: its outputs are then the screening's (`screening_outputs`).
+    pub screening: Option<PathBuf>,
+    /// The outputs a screening gives, found when the case is loaded.
+    #[serde(skip)]
+    pub screening_names: Vec<String>,
     /// A paragraph for the report: what is reproduced, and every input the paper does not
     /// state with how it was chosen.
     #[serde(default)]
@@ -84,8 +92,26 @@ impl CaseFile {
     pub fn has_output(&self, name: &str) -> bool {
         name == WALL_MINUTES
             || self.outputs.iter().any(|o| o.name == name)
+            || self.screening_names.iter().any(|o| o == name)
             || self.derived.iter().any(|d| d.name == name)
     }
+}
+
+/// The outputs of a Morris screening over `factors` (their keys) reading `outputs`: for each
+/// output and factor, μ* (`mu_star.<output>.<factor>`), μ, σ and the factor's rank by μ*
+/// (`rank.…`: 1 the most influential, ties in the study's order); for each output its
+/// smallest and largest value over the runs (`min.<output>`, `max.<output>`: the spread of
+/// the runs).
+pub fn screening_outputs(outputs: &[String], factors: &[String]) -> Vec<String> {
+    let mut names = Vec::new();
+    for o in outputs {
+        for stat in ["mu_star", "mu", "sigma", "rank"] {
+            names.extend(factors.iter().map(|f| format!("{stat}.{o}.{f}")));
+        }
+        names.push(format!("min.{o}"));
+        names.push(format!("max.{o}"));
+    }
+    names
 }
 
 /// An output computed from others of the same run: exactly one of `sum`, `min`, `max` (of
@@ -265,6 +291,8 @@ pub struct LoadedCase {
     pub file: PathBuf,
     pub src: String,
     pub deck: Option<LoadedDeck>,
+    /// The Morris study a screening case reads.
+    pub screening: Option<LoadedStudy>,
 }
 
 impl LoadedCase {
@@ -281,8 +309,30 @@ impl LoadedCase {
             file: path.display().to_string(),
             source,
         })?;
-        let case: CaseFile = parse_located(&src, path)?;
+        let mut case: CaseFile = parse_located(&src, path)?;
         let fail = |issues: Vec<DeckIssue>| locate_issues(&src, path, issues);
+        let screening = match &case.screening {
+            None => None,
+            Some(f) => {
+                let study =
+                    LoadedStudy::from_file(&path.parent().unwrap_or(Path::new("")).join(f))?;
+                if study.study.method != StudyMethod::Morris {
+                    return Err(fail(vec![DeckIssue::new(
+                        "screening",
+                        format!(
+                            "{} is a sweep; a screening case reads a Morris study",
+                            f.display()
+                        ),
+                    )]));
+                }
+                let outputs: Vec<String> =
+                    study.study.outputs.iter().map(|o| o.name.clone()).collect();
+                let factors: Vec<String> =
+                    study.study.factors.iter().map(|f| f.key.clone()).collect();
+                case.screening_names = screening_outputs(&outputs, &factors);
+                Some(study)
+            }
+        };
         let deck = match &case.deck {
             None => None,
             Some(d) => {
@@ -298,7 +348,8 @@ impl LoadedCase {
                 }
             }
         };
-        let issues = validate(&case, deck.as_ref().map(|d| d.src.as_str()));
+        let base = deck.as_ref().or(screening.as_ref().map(|s| &s.base));
+        let issues = validate(&case, base.map(|d| d.src.as_str()));
         if !issues.is_empty() {
             return Err(fail(issues));
         }
@@ -307,6 +358,7 @@ impl LoadedCase {
             file: path.to_path_buf(),
             src,
             deck,
+            screening,
         })
     }
 
@@ -326,10 +378,10 @@ impl LoadedCase {
         }
     }
 
-    /// The case as a sweep study over its series (no factor without one), with the reduced
-    /// numbers over the fixed ones when `reduced`. `None` for a case without a deck.
+    /// The case as a sweep study over its series (no factor without one), or the Morris
+    /// study it screens, with the reduced numbers over the fixed ones when `reduced`. `None`
+    /// for a case without a deck or a screening.
     pub fn study(&self, reduced: bool) -> Option<LoadedStudy> {
-        let base = self.deck.clone()?;
         let mut fixed = self.case.fixed.clone();
         if reduced {
             for r in &self.case.reduced {
@@ -337,6 +389,15 @@ impl LoadedCase {
                 fixed.push(r.clone());
             }
         }
+        if let Some(screening) = &self.screening {
+            let mut study = screening.clone();
+            for f in fixed {
+                study.study.fixed.retain(|g| g.key != f.key);
+                study.study.fixed.push(f);
+            }
+            return Some(study);
+        }
+        let base = self.deck.clone()?;
         let factors = self
             .case
             .series
@@ -490,12 +551,26 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
             "say why the reduced version cannot run in CI".into(),
         );
     }
-    let has_runs = deck.is_some();
+    let has_runs = deck.is_some() || case.screening.is_some();
     if !has_runs && (!case.results.is_empty() || !case.outputs.is_empty()) {
         issue(
             "deck".into(),
-            "a case with results or outputs needs a deck to run".into(),
+            "a case with results or outputs needs a deck to run (or a screening to read)".into(),
         );
+    }
+    if case.screening.is_some() {
+        for (what, given) in [
+            ("deck", case.deck.is_some()),
+            ("series", case.series.is_some()),
+            ("outputs", !case.outputs.is_empty()),
+        ] {
+            if given {
+                issue(
+                    what.into(),
+                    format!("a screening case reads its study's runs: remove `{what}` (the study file has the deck and its outputs)"),
+                );
+            }
+        }
     }
     for (k, o) in case.outputs.iter().enumerate() {
         if !is_name(&o.name) {
@@ -522,6 +597,7 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         let known_before = |n: &str| {
             n == WALL_MINUTES
                 || case.outputs.iter().any(|o| o.name == n)
+                || case.screening_names.iter().any(|o| o == n)
                 || case.derived[..k].iter().any(|e| e.name == n)
         };
         if !is_name(&d.name) {

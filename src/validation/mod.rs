@@ -8,6 +8,7 @@ pub mod figures;
 pub mod measured;
 pub mod others;
 pub mod report;
+pub mod screening;
 pub mod verdict;
 
 use crate::deck::case::LoadedCase;
@@ -136,6 +137,29 @@ pub fn run_case(
         return Ok(measured);
     };
     let out = case_dir(case, opts);
+    if case.screening.is_some() {
+        // A screening is measured whole: its statistics need every run of the design.
+        let options = StudyOptions {
+            out_dir: out.clone(),
+            threads: opts.threads,
+            quiet: opts.quiet,
+            from_run: 0,
+        };
+        let report = run_study_over(&study, &options, &spread).map_err(|e| e.to_string())?;
+        if root {
+            let minutes = (0..report.runs.len())
+                .filter_map(|k| {
+                    run_folder::wall_minutes(&out.join("runs").join(format!("run_{k:04}")))
+                })
+                .sum();
+            let outputs: Vec<String> = study.study.outputs.iter().map(|o| o.name.clone()).collect();
+            let run = screening::measure(&report, &outputs, minutes);
+            measured.wall_minutes = run.wall_minutes;
+            measured.runs = vec![run];
+        }
+        agreed(over, if root { keep(&measured) } else { Ok(()) })?;
+        return Ok(measured);
+    }
     let series = study
         .study
         .factors

@@ -684,3 +684,100 @@ fn the_last_values_run_alone_and_the_others_keep_their_measurement() {
     assert_eq!(kept.runs[1].status, "ok");
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// A screening case reads its Morris study's statistics as one run's outputs: on the
+/// quasi-static tension plate the reaction grows with the modulus and does not see the
+/// density (a quasi-static run never reads it), so the modulus ranks first, the density's
+/// μ* is nothing beside it, and the runs' reactions spread.
+#[test]
+fn a_screening_case_ranks_the_factors_of_its_study() {
+    let root = scratch("screening");
+    let seed = root.join("validation/seed004");
+    std::fs::create_dir_all(seed.join("decks")).unwrap();
+    let deck = repository()
+        .join("examples/quasi_static_tension.toml")
+        .display()
+        .to_string()
+        .replace('\\', "/");
+    let study = format!(
+        "version = 1\ndeck = \"{deck}\"\nmethod = \"morris\"\n\
+         [morris]\ntrajectories = 2\npool = 4\nlevels = 4\nseed = 5\n\
+         [[fixed]]\nkey = \"discretization.spacing\"\nvalue = 2.0e-3\n\
+         [[factors]]\nkey = \"material.youngs_modulus\"\nmin = 1.0e9\nmax = 2.0e9\n\
+         [[factors]]\nkey = \"material.density\"\nmin = 500.0\nmax = 2000.0\n\
+         [[outputs]]\nname = \"reaction\"\ncolumn = \"reaction_top_y\"\nreduce = \"final\"\n"
+    );
+    std::fs::write(seed.join("decks/study.toml"), study).unwrap();
+    let case = "version = 1\npaper = \"004\"\ntitle = \"t\"\nsection = \"§3\"\n\
+        screening = \"decks/study.toml\"\n\
+        [[derived]]\nname = \"idle\"\n\
+        ratio = [\"mu_star.reaction.material.density\", \"mu_star.reaction.material.youngs_modulus\"]\n\
+        [[derived]]\nname = \"spread\"\ndifference = [\"max.reaction\", \"min.reaction\"]\n\
+        [[results]]\nid = \"first\"\nquantity = \"q\"\nsource = \"s\"\npaper = 1.0\n\
+        output = \"rank.reaction.material.youngs_modulus\"\nabs_tolerance = 0.5\nwhy = \"a rank\"\n\
+        [[results]]\nid = \"idle\"\nquantity = \"q\"\nsource = \"s\"\npaper = 1e-9\n\
+        output = \"idle\"\ntrend = \"below\"\n\
+        [[results]]\nid = \"spread\"\nquantity = \"q\"\nsource = \"s\"\noutput = \"spread\"\n\
+        trend = \"above\"\n";
+    std::fs::write(seed.join("screen.toml"), case).unwrap();
+    let layout = Layout::new(root.join("validation"));
+    let case = LoadedCase::from_file(&seed.join("screen.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let opts = ValidateOptions {
+        out_dir: root.join("results"),
+        reduced: false,
+        first: None,
+        last: None,
+        threads: Some(2),
+        quiet: true,
+    };
+    let measured = run_case(&case, &layout, &opts, None, &mut |m| {
+        keep_full(&case, m, &layout, &opts)
+    })
+    .unwrap();
+    assert_eq!(measured.runs.len(), 1);
+    let run = &measured.runs[0];
+    assert_eq!(run.status, "ok");
+    assert_eq!(run.outputs["rank.reaction.material.density"], 2.0);
+    let rows = judge_case(&case, Some(&measured), false, &Others::none());
+    for row in &rows {
+        assert_eq!(row.status, Status::Pass, "{row:?}\n{:?}", run.outputs);
+    }
+    // The measurement is kept and read back like any case's.
+    let kept = Measured::read(&layout.measured_file(&case))
+        .unwrap()
+        .unwrap();
+    assert_eq!(&kept.runs[0], run);
+    // A screening case with a deck of its own, or reading a sweep, is refused at its key.
+    let text = std::fs::read_to_string(seed.join("screen.toml")).unwrap();
+    let sweep = std::fs::read_to_string(seed.join("decks/study.toml"))
+        .unwrap()
+        .replace("method = \"morris\"", "method = \"sweep\"")
+        .replace(
+            "[morris]\ntrajectories = 2\npool = 4\nlevels = 4\nseed = 5\n",
+            "",
+        )
+        .replace("min = 1.0e9\nmax = 2.0e9", "values = [1.0e9]")
+        .replace("min = 500.0\nmax = 2000.0", "values = [500.0]");
+    std::fs::write(seed.join("decks/sweep.toml"), sweep).unwrap();
+    for (from, to, expect) in [
+        (
+            "section = \"§3\"\n",
+            format!("section = \"§3\"\ndeck = \"{deck}\"\n"),
+            "deck: a screening case reads its study's runs: remove `deck`",
+        ),
+        (
+            "decks/study.toml",
+            "decks/sweep.toml".to_string(),
+            "screening: decks/sweep.toml is a sweep; a screening case reads a Morris study",
+        ),
+    ] {
+        let path = seed.join("bad.toml");
+        std::fs::write(&path, text.replacen(from, &to, 1)).unwrap();
+        let e = LoadedCase::from_file(&path).unwrap_err().to_string();
+        assert!(
+            e.contains(expect) && e.contains("bad.toml:"),
+            "expected `{expect}` in:\n{e}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
