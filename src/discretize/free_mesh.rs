@@ -208,4 +208,45 @@ mod tests {
         let total: f64 = (0..mesh.triangles.len()).map(|t| mesh.area(t)).sum();
         assert!((total - 0.36).abs() < 5e-3 * 0.36, "{total}");
     }
+
+    /// Holes through the plate's edge (a disk centred on it, one off it, a notch cut from
+    /// outside) mesh the plate less the hole (they gave no triangle before the boundary was
+    /// closed where the outlines cross).
+    #[test]
+    fn holes_through_the_edge_mesh_the_plate_less_the_hole() {
+        let plate = |hole: Shape| Shape::Difference {
+            base: Box::new(Shape::Rectangle {
+                min: [0.0, 0.0],
+                max: [0.01, 0.01],
+            }),
+            subtract: vec![hole],
+        };
+        let disk = |y: f64| Shape::Disk {
+            center: [0.005, y],
+            radius: 0.002,
+        };
+        // The part of a disk of radius r whose centre is h inside the edge.
+        let segment = |h: f64| {
+            let r: f64 = 0.002;
+            let theta = 2.0 * (h / r).acos();
+            let cap = 0.5 * r * r * (theta - theta.sin());
+            std::f64::consts::PI * r * r - cap
+        };
+        for (hole, area) in [
+            (disk(0.0), 0.5 * std::f64::consts::PI * 4e-6),
+            (disk(0.001), segment(0.001)),
+            (
+                Shape::Rectangle {
+                    min: [0.004, -0.001],
+                    max: [0.0045, 0.003],
+                },
+                0.5e-3 * 3e-3,
+            ),
+        ] {
+            let mesh = free_mesh(&plate(hole), 0.5e-3).unwrap();
+            let total: f64 = (0..mesh.triangles.len()).map(|t| mesh.area(t)).sum();
+            let exact = 1e-4 - area;
+            assert!((total - exact).abs() < 5e-3 * exact, "{total} vs {exact}");
+        }
+    }
 }

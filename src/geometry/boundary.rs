@@ -17,8 +17,10 @@ pub struct Segment {
 /// the circle); a piece of it is kept where the shape is on exactly one side of it, tested
 /// just off the primitive's own boundary at the piece's middle (for a chord, the middle of
 /// its arc). Where the outlines of two primitives of a union, intersection or
-/// difference cross, the corner is therefore cut within one segment length; outlines that
-/// do not cross (holes inside a plate) are exact.
+/// difference cross, the corner is therefore cut within one segment length (`close_gaps`
+/// joins the pieces either side of it when neither piece across the corner was kept: a hole
+/// cut through the plate's edge); outlines that do not cross (holes inside a plate) are
+/// exact.
 pub fn boundary_segments(shape: &Shape, size: f64) -> Result<Vec<Segment>, GeometryError> {
     if shape.dim()? != 2 {
         return Err(GeometryError::Invalid(
@@ -65,7 +67,49 @@ pub fn boundary_segments(shape: &Shape, size: f64) -> Result<Vec<Segment>, Geome
             "the shape has no boundary: is it empty?".into(),
         ));
     }
+    close_gaps(&mut kept, size);
     Ok(kept)
+}
+
+/// Closes the boundary where two outlines cross and both pieces across the crossing were
+/// dropped (a disk centred on the plate's edge: the edge's piece there lies in the disk, the
+/// disk's chord there outside the plate). A piece whose end starts no other piece is joined
+/// to the nearest piece start that ends no other, within three segment lengths: the corner
+/// is cut by one chord, as where a piece across it is kept. Without it the boundary is open
+/// there, and a mesher that tells inside from outside by the boundary finds no inside.
+fn close_gaps(segments: &mut Vec<Segment>, size: f64) {
+    let key = |p: [f64; 2]| (p[0].to_bits(), p[1].to_bits());
+    let starts: std::collections::HashSet<_> = segments.iter().map(|s| key(s.a)).collect();
+    let ends: std::collections::HashSet<_> = segments.iter().map(|s| key(s.b)).collect();
+    let open_ends: Vec<[f64; 2]> = segments
+        .iter()
+        .map(|s| s.b)
+        .filter(|b| !starts.contains(&key(*b)))
+        .collect();
+    // The pieces whose start ends no other piece.
+    let mut open_starts: Vec<usize> = (0..segments.len())
+        .filter(|&k| !ends.contains(&key(segments[k].a)))
+        .collect();
+    for b in open_ends {
+        let distance = |k: usize| {
+            let a = segments[k].a;
+            (a[0] - b[0]).hypot(a[1] - b[1])
+        };
+        let nearest = (0..open_starts.len())
+            .min_by(|&i, &j| distance(open_starts[i]).total_cmp(&distance(open_starts[j])));
+        let Some(i) = nearest.filter(|&i| distance(open_starts[i]) <= 3.0 * size) else {
+            continue;
+        };
+        let k = open_starts.swap_remove(i);
+        if distance(k) <= 1e-6 * size {
+            // The outlines meet at a point both pass through (a vertex of each) but for
+            // rounding: one point, not a sliver of a segment the mesher cannot fit.
+            segments[k].a = b;
+        } else {
+            let a = segments[k].a;
+            segments.push(Segment { a: b, b: a });
+        }
+    }
 }
 
 /// Pieces of a primitive's outline, each with the point of the outline at its middle.
@@ -247,6 +291,53 @@ mod tests {
             .map(|s| 0.5 * (s.a[0] * s.b[1] - s.b[0] * s.a[1]))
             .sum();
         assert!((area - 0.5 * std::f64::consts::PI).abs() < 0.01, "{area}");
+    }
+
+    /// A hole through the plate's edge (a disk centred on it, a notch cut from outside) leaves
+    /// a closed boundary: every piece's end starts another, and the enclosed area is the
+    /// plate's less the part of the hole inside it, within the corners cut.
+    #[test]
+    fn a_hole_through_the_edge_leaves_a_closed_boundary() {
+        let plate = |hole: Shape| Shape::Difference {
+            base: Box::new(Shape::Rectangle {
+                min: [0.0, 0.0],
+                max: [10.0, 10.0],
+            }),
+            subtract: vec![hole],
+        };
+        let half_disk = 0.5 * std::f64::consts::PI * 4.0;
+        for (hole, area) in [
+            (
+                Shape::Disk {
+                    center: [5.0, 0.0],
+                    radius: 2.0,
+                },
+                100.0 - half_disk,
+            ),
+            (
+                Shape::Rectangle {
+                    min: [4.0, -1.0],
+                    max: [4.5, 3.0],
+                },
+                100.0 - 1.5,
+            ),
+        ] {
+            let s = boundary_segments(&plate(hole), 0.3).unwrap();
+            let starts: Vec<[f64; 2]> = s.iter().map(|s| s.a).collect();
+            assert!(s.iter().all(|s| starts.contains(&s.b)), "an open end");
+            // Where the outlines meet at a vertex of both but for rounding (the circle's
+            // point at 180° on the edge y = 0), one point, no sliver the mesher cannot fit.
+            let shortest = s
+                .iter()
+                .map(|s| (s.b[0] - s.a[0]).hypot(s.b[1] - s.a[1]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(shortest > 1e-3, "a sliver {shortest} long");
+            let enclosed: f64 = s
+                .iter()
+                .map(|s| 0.5 * (s.a[0] * s.b[1] - s.b[0] * s.a[1]))
+                .sum();
+            assert!((enclosed - area).abs() < 0.3, "{enclosed} against {area}");
+        }
     }
 
     #[test]
