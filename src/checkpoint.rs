@@ -252,6 +252,7 @@ fn put_record<const D: usize>(w: &mut impl Write, r: &WorkRecord<D>) -> io::Resu
 /// The load step in progress, in the order `read_in_step` reads it.
 fn put_in_step<const D: usize>(w: &mut impl Write, p: &StepInProgress<D>) -> io::Result<()> {
     let r = &p.report;
+    let ncg = !p.direction.is_empty();
     let scalars: [u64; IN_STEP_SCALARS] = [
         p.t0.to_bits(),
         p.t1.to_bits(),
@@ -260,19 +261,19 @@ fn put_in_step<const D: usize>(w: &mut impl Write, p: &StepInProgress<D>) -> io:
         r.broken,
         r.residual.to_bits(),
         p.relaxation.iterations,
-        if p.direction.is_empty() {
-            p.relaxation.start_residual.to_bits()
-        } else {
+        if ncg {
             p.relaxation.since_restart
+        } else {
+            p.relaxation.start_residual.to_bits()
         },
     ];
     for x in scalars {
         w.write_all(&x.to_le_bytes())?;
     }
-    let relaxation = if p.direction.is_empty() {
-        vec![&p.velocity, &p.previous_acceleration]
-    } else {
+    let relaxation = if ncg {
         vec![&p.direction]
+    } else {
+        vec![&p.velocity, &p.previous_acceleration]
     };
     for a in [&p.u0, &p.load0].into_iter().chain(relaxation) {
         put_vectors(w, a)?;

@@ -331,7 +331,7 @@ pub fn run_study_over(
         ls.study.outputs.len(),
         &mut runs,
         |k| {
-            std::fs::read_to_string(runs_dir.join(format!("run_{k:04}")).join("deck.toml")).ok()
+            std::fs::read_to_string(run_folder::of_run(&runs_dir, k).join("deck.toml")).ok()
                 == Some(decks[k].src.clone())
         },
     );
@@ -340,7 +340,7 @@ pub fn run_study_over(
     // that no longer gives them runs again.
     for (k, run) in runs.iter_mut().enumerate() {
         if run.status == "ok" {
-            match read_outputs(ls, &runs_dir.join(format!("run_{k:04}"))) {
+            match read_outputs(ls, &run_folder::of_run(&runs_dir, k)) {
                 Ok(outputs) => run.outputs = outputs,
                 Err(_) => {
                     run.status.clear();
@@ -361,7 +361,7 @@ pub fn run_study_over(
     let progress = !opts.quiet && !matches!(spread, Spread::RunPerRank(_));
     for round in rounds(&pending, size) {
         let mine = round.get(slot).map(|&k| {
-            let dir = runs_dir.join(format!("run_{k:04}"));
+            let dir = run_folder::of_run(&runs_dir, k);
             match spread {
                 Spread::RunOverRanks(r) => {
                     over_ranks::run_point_over_ranks(ls, opts, &decks[k], &dir, r)

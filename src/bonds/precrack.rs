@@ -1,6 +1,6 @@
 //! Pre-cracks as bond filters: a bond whose reference segment crosses the crack is never created.
 
-use crate::geometry::segment_end;
+use crate::geometry::SegmentDeck;
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// A pre-crack surface.
@@ -8,7 +8,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Precrack {
     /// 2D: the line segment from `start` to `end` (a deck may give `length` and `angle`
-    /// instead of `end`: `geometry::segment_end`).
+    /// instead of `end`: `geometry::SegmentDeck`).
     #[serde(deserialize_with = "segment_from_deck")]
     Segment { start: [f64; 2], end: [f64; 2] },
     /// 3D: the planar parallelogram `origin + a·edge1 + b·edge2`, a, b ∈ [0, 1].
@@ -19,21 +19,14 @@ pub enum Precrack {
     },
 }
 
-/// A segment as a deck writes it (`end`, or `length` and `angle`).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SegmentDeck {
-    start: [f64; 2],
-    end: Option<[f64; 2]>,
-    length: Option<f64>,
-    angle: Option<f64>,
-}
-
 fn segment_from_deck<'de, D: Deserializer<'de>>(d: D) -> Result<([f64; 2], [f64; 2]), D::Error> {
     let s = SegmentDeck::deserialize(d)?;
-    let end = segment_end(s.start, s.end, s.length, s.angle)
-        .map_err(|e| serde::de::Error::custom(format!("segment: {e}")))?;
-    Ok((s.start, end))
+    if s.width.is_some() {
+        return Err(serde::de::Error::custom(
+            "segment: a pre-crack has no `width` (a notch of finite width is a `slot` shape, with a segment along its middle)",
+        ));
+    }
+    s.ends("segment")
 }
 
 impl Precrack {

@@ -41,22 +41,34 @@ pub fn segment_end(
     }
 }
 
-/// A slot as a deck writes it (`end`, or `length` and `angle`).
+/// A segment as a deck writes it, a slot's or a pre-crack's: `start` and `end`, or `start`,
+/// `length` and `angle` (`segment_end`); a slot's `width` too.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct SlotDeck {
+pub(crate) struct SegmentDeck {
     start: [f64; 2],
     end: Option<[f64; 2]>,
     length: Option<f64>,
     angle: Option<f64>,
-    width: f64,
+    pub(crate) width: Option<f64>,
+}
+
+impl SegmentDeck {
+    /// Its start and end, or the error a deck reader reports for `what` ("slot", "segment").
+    pub(crate) fn ends<E: serde::de::Error>(&self, what: &str) -> Result<([f64; 2], [f64; 2]), E> {
+        segment_end(self.start, self.end, self.length, self.angle)
+            .map(|end| (self.start, end))
+            .map_err(|e| E::custom(format!("{what}: {e}")))
+    }
 }
 
 fn slot_from_deck<'de, D: Deserializer<'de>>(d: D) -> Result<([f64; 2], [f64; 2], f64), D::Error> {
-    let s = SlotDeck::deserialize(d)?;
-    let end = segment_end(s.start, s.end, s.length, s.angle)
-        .map_err(|e| serde::de::Error::custom(format!("slot: {e}")))?;
-    Ok((s.start, end, s.width))
+    let s = SegmentDeck::deserialize(d)?;
+    let (start, end) = s.ends("slot")?;
+    let width = s
+        .width
+        .ok_or_else(|| serde::de::Error::missing_field("width"))?;
+    Ok((start, end, width))
 }
 
 /// Why a shape is unusable; the message is meant for the person who wrote the deck.

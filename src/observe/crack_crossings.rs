@@ -5,7 +5,7 @@
 //! reference positions: the same files for any number of threads. A restart continues the
 //! counts through `ResumedCsv` (the rows hold a step column); the points are of the last step.
 
-use super::csv::{push_number, CsvHistory};
+use super::csv::{push_row, CsvHistory};
 use super::observer::{Every, Observer, StepView};
 use crate::analysis::{crossings, Crossing, CrossingLine};
 use crate::atomic_file::write_atomic;
@@ -63,13 +63,7 @@ impl CrackCrossings {
                     c.along,
                     c.nodes as f64,
                 ];
-                for (i, v) in cells.into_iter().enumerate() {
-                    if i > 0 {
-                        s.push(',');
-                    }
-                    push_number(&mut s, v);
-                }
-                s.push('\n');
+                push_row(&mut s, &cells);
             }
         }
         s

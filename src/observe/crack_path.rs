@@ -7,7 +7,7 @@
 //! Sequential scans on the reference positions: the same files for any number of threads.
 //! A restart reads the forks back from `branching.csv`.
 
-use super::csv::push_number;
+use super::csv::{push_number, push_row};
 use super::observer::{Every, Observer, StepView};
 use super::resume::{cannot_continue, rows_up_to};
 use crate::analysis::{compare_paths, crack_path, find_forks, Fork, ForkBranch, PathComparison};
@@ -92,7 +92,8 @@ pub struct CrackPath {
     forks: Vec<(f64, u64, Fork)>,
     path: Vec<(f64, f64)>,
     report: Rc<RefCell<Option<PathReport>>>,
-    /// Per node, whether it lies in the region (found at the first observation).
+    /// Per node, whether it lies in the region, when there is one (found at the first
+    /// observation).
     inside: Option<Vec<bool>>,
 }
 
@@ -184,13 +185,7 @@ impl CrackPath {
             } else {
                 (b, a)
             };
-            for (c, v) in [x, y, length].into_iter().enumerate() {
-                if c > 0 {
-                    s.push(',');
-                }
-                push_number(&mut s, v);
-            }
-            s.push('\n');
+            push_row(&mut s, &[x, y, length]);
         }
         s
     }
@@ -249,21 +244,26 @@ impl<const D: usize> Observer<D> for CrackPath {
         let s = self.settings.clone();
         let mut direction = Vector::<2>::zeros();
         direction[s.axis] = 1.0;
-        let inside = self.inside.get_or_insert_with(|| {
-            let region = s.region.as_ref();
-            positions
-                .iter()
-                .map(|p| region.is_none_or(|r| r.contains(p.as_slice())))
-                .collect()
-        });
-        // Outside the region a node counts as undamaged.
-        let damage: Vec<f64> = view
-            .damage()
-            .iter()
-            .zip(inside.iter())
-            .map(|(&d, &i)| if i { d } else { 0.0 })
-            .collect();
-        let damage = damage.as_slice();
+        let in_region: Vec<f64>;
+        let damage = match &s.region {
+            None => view.damage(),
+            Some(region) => {
+                let inside = self.inside.get_or_insert_with(|| {
+                    positions
+                        .iter()
+                        .map(|p| region.contains(p.as_slice()))
+                        .collect()
+                });
+                // Outside the region a node counts as undamaged.
+                in_region = view
+                    .damage()
+                    .iter()
+                    .zip(inside.iter())
+                    .map(|(&d, &i)| if i { d } else { 0.0 })
+                    .collect();
+                &in_region
+            }
+        };
         let forks = find_forks(
             &positions,
             damage,
@@ -310,13 +310,7 @@ impl<const D: usize> Observer<D> for CrackPath {
         if let Some(c) = &comparison {
             let mut text = String::from("abscissa,path,reference\n");
             for &(a, p, r) in &c.samples {
-                for (k, v) in [a, p, r].into_iter().enumerate() {
-                    if k > 0 {
-                        text.push(',');
-                    }
-                    push_number(&mut text, v);
-                }
-                text.push('\n');
+                push_row(&mut text, &[a, p, r]);
             }
             write_atomic(&self.dir.join("crack_path_comparison.csv"), text.as_bytes())?;
         }

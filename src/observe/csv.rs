@@ -102,13 +102,7 @@ impl CsvHistory {
         s.push_str(&header.join(","));
         s.push('\n');
         for row in &self.rows {
-            for (i, v) in row.iter().enumerate() {
-                if i > 0 {
-                    s.push(',');
-                }
-                push_number(&mut s, *v);
-            }
-            s.push('\n');
+            push_row(&mut s, row);
         }
         s
     }
@@ -127,6 +121,17 @@ pub(crate) fn push_number(s: &mut String, v: f64) {
     } else {
         let _ = write!(s, "{v:e}");
     }
+}
+
+/// Appends `row` as one line of comma-separated numbers (`push_number` each).
+pub(crate) fn push_row(s: &mut String, row: &[f64]) {
+    for (i, v) in row.iter().enumerate() {
+        if i > 0 {
+            s.push(',');
+        }
+        push_number(s, *v);
+    }
+    s.push('\n');
 }
 
 /// Quotes a header cell if it contains a separator, quote or newline.

@@ -6,7 +6,7 @@
 //! again).
 
 use crate::atomic_file::write_atomic;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
 /// How often a study's run checkpoints by the clock, whatever its deck says: a stopped run
@@ -18,6 +18,11 @@ pub const CHECKPOINT_EVERY: Duration = Duration::from_secs(600);
 const PART_START: &str = "part_started";
 /// The wall seconds of the parts before the one in progress, up to each one's last checkpoint.
 const EARLIER_PARTS: &str = "earlier_parts_wall_seconds";
+
+/// The folder of run `k` in a study's `runs/` folder.
+pub fn of_run(runs_dir: &Path, k: usize) -> PathBuf {
+    runs_dir.join(format!("run_{k:04}"))
+}
 
 /// How a run begins in its folder.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -103,7 +103,7 @@ fn column_curves(
 ) -> Result<Vec<Curve>, String> {
     let mut curves = Vec::new();
     for (k, run) in measured.runs.iter().enumerate() {
-        let dir = runs_dir.join(format!("run_{k:04}"));
+        let dir = crate::study_run::run_folder::of_run(runs_dir, k);
         let column = |axis: &AxisSpec| -> Result<Vec<f64>, String> {
             let file = axis.file.as_deref().unwrap_or("history.csv");
             let path = dir.join(file);

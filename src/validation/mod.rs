@@ -148,9 +148,7 @@ pub fn run_case(
         let report = run_study_over(&study, &options, &spread).map_err(|e| e.to_string())?;
         if root {
             let minutes = (0..report.runs.len())
-                .filter_map(|k| {
-                    run_folder::wall_minutes(&out.join("runs").join(format!("run_{k:04}")))
-                })
+                .filter_map(|k| run_folder::wall_minutes(&run_folder::of_run(&out.join("runs"), k)))
                 .sum();
             let outputs: Vec<String> = study.study.outputs.iter().map(|o| o.name.clone()).collect();
             let run = screening::measure(&report, &outputs, minutes);
@@ -197,7 +195,7 @@ pub fn run_case(
         // earlier measurement.
         let runs = report.runs.iter().enumerate();
         for (k, run) in runs.filter(|(_, r)| !r.status.is_empty()) {
-            let dir = out.join("runs").join(format!("run_{k:04}"));
+            let dir = run_folder::of_run(&out.join("runs"), k);
             let minutes = run_folder::wall_minutes(&dir).unwrap_or(0.0);
             measured.wall_minutes += minutes;
             measured.runs.push(MeasuredRun {
