@@ -689,6 +689,10 @@ pub enum SolverDeck {
         /// out, so that the decks and checkpoints of runs before the key stay the same).
         #[serde(default, skip_serializing_if = "AdrDampingDeck::is_local")]
         adr_damping: AdrDampingDeck,
+        /// Conjugate gradients' preconditioner (absent: "jacobi", left out of the resolved
+        /// deck like `adr_damping`).
+        #[serde(default, skip_serializing_if = "PreconditionerDeck::is_jacobi")]
+        preconditioner: PreconditionerDeck,
         /// Relative residual of an equilibrium: out-of-balance force over the loading forces.
         #[serde(default = "default_qs_tolerance")]
         tolerance: f64,
@@ -782,6 +786,23 @@ pub enum AdrDampingDeck {
 impl AdrDampingDeck {
     fn is_local(&self) -> bool {
         *self == AdrDampingDeck::Local
+    }
+}
+
+/// How conjugate gradients precondition their residual.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PreconditionerDeck {
+    /// The inverse of the diagonal stiffness bound.
+    #[default]
+    Jacobi,
+    /// Jacobi plus a coarse grid's correction (`solver::coarse_space`).
+    TwoLevel,
+}
+
+impl PreconditionerDeck {
+    fn is_jacobi(&self) -> bool {
+        *self == PreconditionerDeck::Jacobi
     }
 }
 

@@ -1,7 +1,9 @@
 //! What a `[solver]` table (the deck's or a stage's) asks of a run: `SolverSettings`, and the
 //! steps between history rows.
 
-use super::schema::{AdaptiveDtDeck, AdrDampingDeck, Deck, QuasiStaticMethod, SolverDeck};
+use super::schema::{
+    AdaptiveDtDeck, AdrDampingDeck, Deck, PreconditionerDeck, QuasiStaticMethod, SolverDeck,
+};
 use crate::solver::{AdaptiveDtSettings, AdrDamping, EquilibriumMethod, QuasiStaticSettings};
 
 /// Solver settings of a run.
@@ -83,6 +85,7 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
             end_time,
             method,
             adr_damping,
+            preconditioner,
             tolerance,
             max_iterations,
             mass_factor,
@@ -103,6 +106,7 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
                     AdrDampingDeck::Local => AdrDamping::Local,
                     AdrDampingDeck::Increment => AdrDamping::Increment,
                 },
+                two_level: *preconditioner == PreconditionerDeck::TwoLevel,
                 tolerance: *tolerance,
                 max_iterations: *max_iterations,
                 mass_factor: *mass_factor,

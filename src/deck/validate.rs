@@ -1028,6 +1028,7 @@ fn validate_solver(
             end_time,
             method,
             adr_damping,
+            preconditioner,
             tolerance,
             max_iterations,
             mass_factor,
@@ -1045,6 +1046,12 @@ fn validate_solver(
                 issues.push(DeckIssue::new(
                     &format!("{prefix}solver.adr_damping"),
                     "adr_damping sets the damping of adaptive dynamic relaxation; conjugate gradients have none: use method = \"adr\" or leave adr_damping out",
+                ));
+            }
+            if *method != QuasiStaticMethod::Ncg && *preconditioner != PreconditionerDeck::Jacobi {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.preconditioner"),
+                    "preconditioner sets how conjugate gradients precondition; adaptive dynamic relaxation has fictitious masses instead: use method = \"ncg\" or leave preconditioner out",
                 ));
             }
             if *load_steps == 0 {

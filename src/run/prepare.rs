@@ -10,7 +10,7 @@ use crate::deck::{DeckIssue, LoadedDeck};
 use crate::material::surface_correction::SurfaceReport;
 use crate::material::{Elasticity, Material};
 use crate::solver::cross_bonds::CrossBonds;
-use crate::solver::Simulation;
+use crate::solver::{EquilibriumMethod, Simulation};
 use std::time::Instant;
 
 /// A constitution without its material: what `prepare` needs besides it.
@@ -156,10 +156,15 @@ pub fn prepare_shared<const D: usize, M: Material<D>>(
         micromodulus: first.micromodulus.unwrap_or(0.0),
         critical_stretch: first.critical_stretch.unwrap_or(f64::INFINITY),
         p_wave_speed: (el.p_wave_modulus() / sim.densities[0]).sqrt(),
-        solver: if settings.quasi_static.is_some() {
-            "quasi-static (adaptive dynamic relaxation)".into()
-        } else {
-            "explicit".into()
+        solver: match &settings.quasi_static {
+            None => "explicit".into(),
+            Some(q) => match (q.method, q.two_level) {
+                (EquilibriumMethod::Adr, _) => "quasi-static (adaptive dynamic relaxation)".into(),
+                (EquilibriumMethod::Ncg, false) => "quasi-static (conjugate gradients)".into(),
+                (EquilibriumMethod::Ncg, true) => {
+                    "quasi-static (conjugate gradients, two-level preconditioner)".into()
+                }
+            },
         },
         dt: sim.dt,
         dt_stable: sim.dt_stable,

@@ -33,7 +33,7 @@ pub struct ModelReport {
     /// Critical stretch of the first material (infinite when its law has none).
     pub critical_stretch: f64,
     pub p_wave_speed: f64,
-    /// "explicit" or "quasi-static (adaptive dynamic relaxation)".
+    /// "explicit", or "quasi-static (" the equilibrium method ")".
     pub solver: String,
     /// Time step (s), or the load increment in pseudo-time of a quasi-static run.
     pub dt: f64,

@@ -15,7 +15,8 @@ use crate::bonds::{Bonds, PartialVolume, Quadrature};
 use crate::damage::critical_stretch::UniformCriticalStretch;
 use crate::damage::mixed::MixedLaws;
 use crate::damage::{
-    BondForce, Damage, DamageLaw, MixedDamage, PerNode, Stretch, Work, BROKEN, INTACT, OWN_BROKEN,
+    BondForce, Damage, DamageLaw, MixedDamage, PerNode, Stretch, Work, BROKEN, INTACT,
+    OTHER_BROKEN, OWN_BROKEN,
 };
 use crate::material::simd::{self, NodeBonds};
 use crate::material::simd_nodes::{CriticalStretches, NodeConstants};
@@ -1164,15 +1165,29 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
                     .family(i)
                     .map(|b| {
                         let j = bonds.neighbors[b] as usize;
-                        let l = bonds.ref_lengths[b];
-                        let (phi_ij, phi_ji) = self.quad.phi_pair(b, i, j, l);
-                        0.5 * (self.material.bond_stiffness(i, l) * phi_ij
-                            + self.material.bond_stiffness(j, l) * phi_ji)
-                            * body.volumes[j]
+                        self.pair_stiffness(bonds, b, i, j, INTACT) * body.volumes[j]
                     })
                     .sum()
             })
             .collect()
+    }
+
+    /// C̄ = ½ (C_i φ_ij + C_j φ_ji) of bond b = i→j (N/m⁷), each half's term only while that
+    /// half (`status`'s bits) is intact.
+    pub fn pair_stiffness(&self, bonds: &Bonds, b: usize, i: usize, j: usize, status: u8) -> f64 {
+        let l = bonds.ref_lengths[b];
+        let (phi_ij, phi_ji) = self.quad.phi_pair(b, i, j, l);
+        let own = if status & OWN_BROKEN == 0 {
+            self.material.bond_stiffness(i, l) * phi_ij
+        } else {
+            0.0
+        };
+        let other = if status & OTHER_BROKEN == 0 {
+            self.material.bond_stiffness(j, l) * phi_ji
+        } else {
+            0.0
+        };
+        0.5 * (own + other)
     }
 }
 

@@ -2,6 +2,7 @@
 //! step controller) and the quasi-static load-step loop (adaptive dynamic relaxation).
 
 pub mod adaptive_dt;
+pub mod coarse_space;
 pub mod contact;
 pub mod contact_halo;
 pub mod cross_bonds;

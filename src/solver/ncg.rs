@@ -3,7 +3,8 @@
 //! (seed 000 §2.10, seed 001 §2.10: PMB with critical stretch; softening laws are not convex).
 //!
 //! Polak–Ribière with restarts (β ≤ 0, or every `n` iterations), Jacobi-preconditioned by the
-//! same diagonal stiffness bound as dynamic relaxation, and a secant line search on the
+//! same diagonal stiffness bound as dynamic relaxation (plus, with two levels, the coarse
+//! grid's correction of `coarse_space.rs`), and a secant line search on the
 //! directional derivative Π'(u + αd)·d = −r(u + αd)·d (Shewchuk 1994, "An introduction to the
 //! conjugate gradient method without the agonizing pain", algorithm B5): only force
 //! evaluations, no energy. The residual r = V (f + b) on the free components is the negative
@@ -16,6 +17,7 @@
 //! (`QuasiStaticSettings::exact_line_search` keeps that search). The minimiser stops on the
 //! caller's residual test either way: the equilibria satisfy the same tolerance. Bonds do not break during a minimisation (the caller freezes the damage state).
 
+use super::coarse_space::CoarseSpace;
 use super::quasi_static_memory::Pause;
 use super::ranks::{chunked_sums, Share};
 use super::{Simulation, StepError};
@@ -35,6 +37,8 @@ pub struct Ncg<const D: usize> {
     /// The search direction (a paused minimisation continues along it: a checkpoint keeps it).
     pub(super) direction: Vec<Vector<D>>,
     exact_line_search: bool,
+    /// The two-level preconditioner's coarse correction added to Jacobi's (`None`: Jacobi).
+    coarse: Option<CoarseSpace<D>>,
 }
 
 /// Where a minimisation continues from, when it paused: its force evaluations so far and its
@@ -62,6 +66,7 @@ impl<const D: usize> Ncg<D> {
         sim: &Simulation<D, M>,
         stiffness: &[f64],
         exact_line_search: bool,
+        two_level: bool,
     ) -> Self {
         let inverse_diagonal = stiffness
             .iter()
@@ -72,6 +77,7 @@ impl<const D: usize> Ncg<D> {
             inverse_diagonal,
             direction: vec![Vector::zeros(); sim.owned()],
             exact_line_search,
+            coarse: two_level.then(|| CoarseSpace::new(sim)),
         }
     }
 
@@ -99,8 +105,11 @@ impl<const D: usize> Ncg<D> {
             .as_deref()
             .map_or(n_free, |s| s.ranks.sum_u64(n_free as u64) as usize)
             .max(1);
+        if let Some(coarse) = self.coarse.as_mut() {
+            coarse.update(sim);
+        }
         let mut r = self.residual(sim);
-        let mut s = self.precondition(&r);
+        let mut s = self.precondition(share.as_deref(), &r);
         let (mut evaluations, mut since_restart) = match continued {
             Some(c) => (c.evaluations, c.since_restart as usize),
             None => {
@@ -156,7 +165,7 @@ impl<const D: usize> Ncg<D> {
             }
             r = self.residual(sim);
             let delta_old = delta_new;
-            let s_new = self.precondition(&r);
+            let s_new = self.precondition(share.as_deref(), &r);
             let delta_mid;
             [delta_mid, delta_new] = dots(share.as_deref(), [(&r, &s), (&r, &s_new)]);
             s = s_new;
@@ -214,11 +223,17 @@ impl<const D: usize> Ncg<D> {
             .collect()
     }
 
-    fn precondition(&self, r: &[Vector<D>]) -> Vec<Vector<D>> {
-        r.par_iter()
+    /// D⁻¹ r, plus the coarse correction P A_c⁻¹ Pᵀ r with two levels.
+    fn precondition(&self, share: Option<&Share>, r: &[Vector<D>]) -> Vec<Vector<D>> {
+        let mut s: Vec<Vector<D>> = r
+            .par_iter()
             .zip(self.inverse_diagonal.par_iter())
             .map(|(r, m)| r * *m)
-            .collect()
+            .collect();
+        if let Some(coarse) = &self.coarse {
+            coarse.correct(share, r, &mut s);
+        }
+        s
     }
 }
 

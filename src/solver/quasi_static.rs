@@ -103,6 +103,9 @@ pub struct QuasiStaticSettings {
     /// NCG's line search to a relative change of 10⁻⁶ in the step (as before 2026-11) instead
     /// of stopping once the directional derivative has fallen to 1 % of its start.
     pub exact_line_search: bool,
+    /// NCG preconditioned by Jacobi plus a coarse grid's correction (`coarse_space`) instead
+    /// of Jacobi alone.
+    pub two_level: bool,
 }
 
 /// How ADR bounds its fictitious masses from the stiffness (both keep the central-difference
@@ -153,6 +156,7 @@ impl Default for QuasiStaticSettings {
             mass: AdrMass::Spectral,
             damping: AdrDamping::Local,
             exact_line_search: false,
+            two_level: false,
         }
     }
 }
@@ -488,7 +492,7 @@ impl<const D: usize> QuasiStatic<D> {
             .map(|k| settings.mass_factor * 0.5 * k)
             .collect();
         let ncg = (settings_method == EquilibriumMethod::Ncg)
-            .then(|| Ncg::new(sim, &mass, settings.exact_line_search));
+            .then(|| Ncg::new(sim, &mass, settings.exact_line_search, settings.two_level));
         let spectral =
             settings_method == EquilibriumMethod::Adr && settings.mass == AdrMass::Spectral;
         let gershgorin = mass.clone();

@@ -451,3 +451,14 @@ fn critical_energy_3d_api_is_bitwise_identical_with_1_and_2_threads() {
         assert!(u1 == u2, "{label}: bits differ between 1 and 2 threads");
     }
 }
+
+/// Conjugate gradients with the coarse grid's correction (the distributed comparison's deck):
+/// the coarse matrix and every restriction are sums in the node order, whatever the threads.
+#[test]
+fn two_level_conjugate_gradients_are_bitwise_identical_with_1_and_2_threads() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mpi/pmb_ncg_two_level_notched.toml");
+    let mut ld = LoadedDeck::from_file(&path).unwrap();
+    ld.deck.output.png = false;
+    assert_deterministic(&ld, "two-level NCG");
+}

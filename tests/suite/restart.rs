@@ -395,6 +395,17 @@ fn a_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_identical(
     assert_stopped_inside_the_crack_step_continues("inside-step-ncg", "method = \"ncg\"", 2);
 }
 
+/// The same with the two-level preconditioner: the continued run assembles the coarse
+/// matrix of the damage state it continues from, the one the paused minimisation used.
+#[test]
+fn a_two_level_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_identical() {
+    assert_stopped_inside_the_crack_step_continues(
+        "inside-step-ncg-two-level",
+        "method = \"ncg\"\npreconditioner = \"two_level\"",
+        2,
+    );
+}
+
 /// Runs the fracturing quasi-static plate with `method` whole, then pausing after every
 /// iteration (`evaluations_per_pause` force evaluations, or more, apart) and stopped about a
 /// third of the way into the load step in which the crack runs; continued, it must leave the
