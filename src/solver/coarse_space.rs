@@ -27,7 +27,7 @@ use super::ranks::Share;
 use super::Simulation;
 use crate::material::Material;
 use crate::math::Vector;
-use crate::state::{OTHER_BROKEN, OWN_BROKEN};
+use crate::state::BROKEN;
 
 /// Coarse cells aimed at: in 2D the banded factorisation of 2 × 4096 unknowns (band ≈ 2·64)
 /// costs about 10⁸ operations, a few force evaluations; in 3D the band grows with the cells of
@@ -194,7 +194,7 @@ impl<const D: usize> CoarseSpace<D> {
             for i in 0..owned {
                 for b in bonds.family(i) {
                     let s = status[b];
-                    if s & OWN_BROKEN != 0 && s & OTHER_BROKEN != 0 {
+                    if s == BROKEN {
                         continue;
                     }
                     let j = bonds.neighbors[b] as usize;
