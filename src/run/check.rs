@@ -41,7 +41,7 @@ pub struct TimeEstimate {
 /// A quasi-static run's estimate: its first load step relaxes from rest, every later one
 /// from the predictor's extrapolation, and each costs its iterations × the time of one
 /// iteration (one force evaluation and the vector updates). Both steps are taken on the
-/// built model with at most `PROBE_ITERATIONS` iterations (and `PROBE_SECONDS`) each; a
+/// built model with at most `PROBE_ITERATIONS` iterations (and `PROBE_BOND_EVALUATIONS`) each; a
 /// relaxation that did not converge in them is extrapolated at its mean rate of decrease
 /// (linear convergence). The
 /// estimate is that of a body that does not break: a load step in which bonds break
@@ -64,10 +64,11 @@ pub const CRACK_STEP_RATIO: [f64; 2] = [50.0, 75.0];
 
 /// Iterations allowed to each of the two load steps `check` takes …
 const PROBE_ITERATIONS: u64 = 400;
-/// … and at most about this much wall time each (on a large body 400 iterations take
-/// minutes), but never fewer than `PROBE_ITERATIONS_MIN` iterations: the extrapolation needs a
-/// rate of decrease.
-const PROBE_SECONDS: f64 = 2.0;
+/// … and at most about this many directed-bond evaluations each (about 2 s here: on a large
+/// body 400 iterations take minutes), but never fewer than `PROBE_ITERATIONS_MIN` iterations:
+/// the extrapolation needs a rate of decrease. A count, not a time, so that `check` gives the
+/// same estimate of iterations on a busy machine as on a quiet one.
+const PROBE_BOND_EVALUATIONS: f64 = 2e8;
 const PROBE_ITERATIONS_MIN: u64 = 20;
 
 impl std::fmt::Display for TimeEstimate {
@@ -139,7 +140,7 @@ fn check_dim<const D: usize>(
         let estimate = match (quasi_static, time && report.stages.is_empty()) {
             (_, false) => None,
             (None, true) => time_steps(&mut sim, report.steps),
-            (Some(qs), true) => time_load_steps(&mut sim, qs.clone(), report.steps),
+            (Some(qs), true) => time_load_steps(&mut sim, qs.clone(), report.steps, report.bonds),
         };
         (report, estimate)
     }
@@ -176,23 +177,23 @@ fn time_steps<const D: usize, M: Material<D>>(
 }
 
 /// A quasi-static run's first two load steps, each with at most `PROBE_ITERATIONS`
-/// iterations and about `PROBE_SECONDS` (see `QuasiStaticBasis`); `None` for a run of no load steps or when a
+/// iterations and about `PROBE_BOND_EVALUATIONS` (see `QuasiStaticBasis`); `bonds` counts
+/// each pair once; `None` for a run of no load steps or when a
 /// relaxation fails or does not decrease the residual (the run itself will say why).
 fn time_load_steps<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     settings: QuasiStaticSettings,
     steps: u64,
+    bonds: usize,
 ) -> Option<TimeEstimate> {
     if steps == 0 {
         return None;
     }
     let tolerance = settings.tolerance;
-    // An iteration costs about one force evaluation: time one to size the probes.
-    let started = Instant::now();
-    sim.refresh_forces().ok()?;
-    let evaluation = started.elapsed().as_secs_f64().max(1e-9);
-    let budget =
-        ((PROBE_SECONDS / evaluation) as u64).clamp(PROBE_ITERATIONS_MIN, PROBE_ITERATIONS);
+    // An iteration costs about one force evaluation: one per directed bond.
+    let per_iteration = (2 * bonds).max(1) as f64;
+    let budget = ((PROBE_BOND_EVALUATIONS / per_iteration) as u64)
+        .clamp(PROBE_ITERATIONS_MIN, PROBE_ITERATIONS);
     let mut solver = QuasiStatic::new(sim, settings, sim.dt);
     let first = solver.probe(sim, budget).ok()?;
     let later = if steps > 1 {
