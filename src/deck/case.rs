@@ -207,7 +207,8 @@ pub struct ResultSpec {
     #[serde(default)]
     pub unit: String,
     pub output: String,
-    /// With a series: the series value whose run the row reads.
+    /// With a series: the series value whose run the row reads (a bound, `below` or
+    /// `above`, reads every run without it).
     pub at: Option<f64>,
     /// The reduced series' value whose run the row reads in CI (default `at`): a paper's
     /// number asserted at the reduced size with its `reduced_tolerance`.
@@ -657,9 +658,9 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         }
         let series = case.series.as_ref();
         match (series, r.at, r.trend) {
-            (_, Some(_), Some(_)) => issue(
+            (_, Some(_), Some(t)) if !matches!(t, Trend::Below | Trend::Above) => issue(
                 at("at"),
-                "a trend reads every run of the series; remove `at`".into(),
+                "a direction or a constant reads every run of the series; remove `at` (a bound, `below` or `above`, may read one run)".into(),
             ),
             (None, Some(_), _) => issue(at("at"), "`at` needs a [series]".into()),
             // A bound holds run by run, so one run is enough; a direction or a constant

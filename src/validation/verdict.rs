@@ -117,18 +117,29 @@ fn judge(
             .copied()
             .map(|v| v * r.scale)
     };
+    let at = if reduced { r.reduced_at.or(r.at) } else { r.at };
     if let Some(trend) = r.trend {
-        let mut runs: Vec<_> = m.runs.iter().collect();
+        // A bound may be read at one series value (the paper's grid) only.
+        let mut runs: Vec<_> = m
+            .runs
+            .iter()
+            .filter(|run| at.is_none_or(|a| run.series == Some(a)))
+            .collect();
         runs.sort_by(|a, b| a.series.unwrap_or(0.0).total_cmp(&b.series.unwrap_or(0.0)));
         let values: Vec<Option<f64>> = runs.iter().map(|run| output(run)).collect();
         let level = r.paper.unwrap_or(0.0);
+        let every = if at.is_none() { " at every run" } else { "" };
         row.tolerance = match trend {
             Trend::Increasing => "increasing".into(),
             Trend::Decreasing => "decreasing".into(),
             Trend::Constant => format!("constant ±{}", percent(rel.unwrap_or(0.0))),
-            Trend::Below => format!("below {} at every run", number(level)),
-            Trend::Above => format!("above {} at every run", number(level)),
+            Trend::Below => format!("below {}{every}", number(level)),
+            Trend::Above => format!("above {}{every}", number(level)),
         };
+        if let (Some(a), true) = (at, runs.is_empty()) {
+            row.note = format!("The series value {a} is not run at this size.");
+            return row;
+        }
         // A bound holds run by run; a direction or a constant needs two runs to compare.
         let bound = matches!(trend, Trend::Below | Trend::Above);
         let fewest = if bound { 1 } else { 2 };
@@ -175,7 +186,6 @@ fn judge(
         // At the reduced size a trend is asserted where the row says why it holds there.
         row.status = verdict(holds, reduced && r.why_reduced.trim().is_empty());
     } else {
-        let at = if reduced { r.reduced_at.or(r.at) } else { r.at };
         let run = m.runs.iter().find(|run| run.series == at || at.is_none());
         let Some(run) = run else {
             row.note = format!(

@@ -476,6 +476,65 @@ fn a_comparison_across_cases_pairs_the_runs_of_the_two_series() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// A bound may be read at one series value (the paper's grid, where coarser ones are not the
+/// paper's claim); a direction or a constant may not.
+#[test]
+fn a_bound_read_at_one_series_value_ignores_the_other_runs() {
+    let root = scratch("bound-at");
+    let (_, a) = two_cases(&root, "[30.0, 40.0]");
+    let path = root.join("validation/seed002/a.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replacen("trend = \"above\"\n", "trend = \"above\"\nat = 400.0\n", 1),
+    )
+    .unwrap();
+    let a_at = LoadedCase::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    // 440 at 300 would break the bound of 450 at every run; at 400 alone it holds.
+    let low = Measured {
+        runs: vec![speed_run(300.0, 440.0), speed_run(400.0, 590.0)],
+        ..Measured::default()
+    };
+    let row = &judge_case(&a_at, Some(&low), false, &Others::none())[1];
+    assert_eq!(row.status, Status::Pass, "{row:?}");
+    assert_eq!(
+        (row.values.as_slice(), row.tolerance.as_str()),
+        ([590.0].as_slice(), "above 450")
+    );
+    assert_eq!(
+        judge_case(&a, Some(&low), false, &Others::none())[1].status,
+        Status::Differs
+    );
+    // The value read is not run: the row is not run, whatever the other runs say.
+    let other = Measured {
+        runs: vec![speed_run(300.0, 440.0)],
+        ..Measured::default()
+    };
+    let row = &judge_case(&a_at, Some(&other), false, &Others::none())[1];
+    assert_eq!(row.status, Status::NotRun, "{row:?}");
+    assert!(
+        row.note.contains("The series value 400 is not run"),
+        "{}",
+        row.note
+    );
+    // A constant compares runs: `at` is refused.
+    std::fs::write(
+        &path,
+        text.replacen(
+            "trend = \"above\"\n",
+            "trend = \"constant\"\nat = 400.0\ntolerance = 0.1\n",
+            1,
+        ),
+    )
+    .unwrap();
+    let e = LoadedCase::from_file(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("a direction or a constant reads every run of the series"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 #[test]
 fn a_comparison_across_cases_refuses_series_it_cannot_pair() {
     let root = scratch("across-bad");
