@@ -229,6 +229,9 @@ pub struct ResultSpec {
     #[serde(default)]
     pub explanation: String,
     pub trend: Option<Trend>,
+    /// With a trend: the series values whose runs it reads (default: every run), when the
+    /// paper's statement covers only some of them (its own horizons, not coarser ones).
+    pub among: Option<Vec<f64>>,
 }
 
 fn one() -> f64 {
@@ -679,6 +682,25 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
                 "with a [series], a value row names the series value it reads (`at`)".into(),
             ),
             _ => {}
+        }
+        if let Some(among) = &r.among {
+            let values = series.map_or(&[][..], |s| &s.values[..]);
+            let fewest = match r.trend {
+                None => None,
+                Some(Trend::Below | Trend::Above) => Some(1),
+                Some(_) => Some(2),
+            };
+            if let Some(v) = among.iter().find(|v| !values.contains(v)) {
+                issue(
+                    at("among"),
+                    format!("{v} is not one of the series values {values:?}"),
+                );
+            } else if fewest.is_none_or(|n| among.len() < n) || r.at.is_some() {
+                issue(
+                    at("among"),
+                    "`among` lists the series values a trend reads (two or more for a direction or a constant), without `at`".into(),
+                );
+            }
         }
         match (series, r.reduced_at) {
             (_, Some(_)) if r.at.is_none() => {

@@ -93,17 +93,23 @@ fn run_points(
 }
 
 /// A named curve of (x, y) points.
-type Curve = (String, Vec<(f64, f64)>);
+pub type Curve = (String, Vec<(f64, f64)>);
 
-fn column_curves(
+/// The curves of a plot over columns of the runs' files, one per measured run that finished,
+/// read from its folder in `runs_dir`.
+pub fn column_curves(
     case: &LoadedCase,
     plot: &PlotSpec,
     measured: &Measured,
     runs_dir: &Path,
 ) -> Result<Vec<Curve>, String> {
     let mut curves = Vec::new();
+    let series = case.series_values(measured.size == "reduced");
     for (k, run) in measured.runs.iter().enumerate() {
-        let dir = crate::study_run::run_folder::of_run(runs_dir, k);
+        // The study numbers its run folders by their place in the series, which a run measured
+        // alone (`--last`) keeps: not by its place among the runs measured.
+        let place = run.series.and_then(|v| series.iter().position(|s| *s == v));
+        let dir = crate::study_run::run_folder::of_run(runs_dir, place.unwrap_or(k));
         let column = |axis: &AxisSpec| -> Result<Vec<f64>, String> {
             let file = axis.file.as_deref().unwrap_or("history.csv");
             let path = dir.join(file);

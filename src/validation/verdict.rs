@@ -3,7 +3,7 @@
 //! NOT RUN without a measurement. The same rule serves the full runs (the row's
 //! `tolerance`) and the reduced ones in CI (its `reduced_tolerance`).
 
-use super::measured::Measured;
+use super::measured::{Measured, MeasuredRun};
 use super::others::Others;
 use crate::deck::case::{LoadedCase, ResultSpec, Trend};
 use std::fmt;
@@ -119,12 +119,14 @@ fn judge(
     };
     let at = if reduced { r.reduced_at.or(r.at) } else { r.at };
     if let Some(trend) = r.trend {
-        // A bound may be read at one series value (the paper's grid) only.
-        let mut runs: Vec<_> = m
-            .runs
-            .iter()
-            .filter(|run| at.is_none_or(|a| run.series == Some(a)))
-            .collect();
+        // A bound may be read at one series value (the paper's grid) only, any trend at some
+        // (the full series' values: a reduced run reads its own).
+        let read = |run: &&MeasuredRun| match (&r.among, at) {
+            (Some(among), _) if !reduced => run.series.is_some_and(|v| among.contains(&v)),
+            (_, Some(a)) => run.series == Some(a),
+            _ => true,
+        };
+        let mut runs: Vec<_> = m.runs.iter().filter(read).collect();
         runs.sort_by(|a, b| a.series.unwrap_or(0.0).total_cmp(&b.series.unwrap_or(0.0)));
         let values: Vec<Option<f64>> = runs.iter().map(|run| output(run)).collect();
         let level = r.paper.unwrap_or(0.0);

@@ -4,6 +4,7 @@
 //! right on a case whose measurements are known.
 
 use peridyn::deck::case::LoadedCase;
+use peridyn::validation::figures::column_curves;
 use peridyn::validation::measured::{Measured, MeasuredRun};
 use peridyn::validation::others::Others;
 use peridyn::validation::verdict::{judge_case, Status};
@@ -532,6 +533,99 @@ fn a_bound_read_at_one_series_value_ignores_the_other_runs() {
         e.contains("a direction or a constant reads every run of the series"),
         "{e}"
     );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A trend may read some of the series' runs (the paper's own horizons, not coarser ones).
+#[test]
+fn a_trend_among_some_series_values_ignores_the_others() {
+    let root = scratch("among");
+    let (_, _) = two_cases(&root, "[30.0, 40.0]");
+    let path = root.join("validation/seed002/a.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("values = [300.0, 400.0]", "values = [300.0, 350.0, 400.0]");
+    let case = |trend: &str| {
+        std::fs::write(
+            &path,
+            text.replacen("trend = \"above\"\n", &format!("{trend}\n"), 1),
+        )
+        .unwrap();
+        LoadedCase::from_file(&path)
+    };
+    let a = case("trend = \"constant\"\ntolerance = 0.05\nwhy = \"w\"\namong = [350.0, 400.0]")
+        .unwrap_or_else(|e| panic!("{e}"));
+    // 500 at 300 is far from the others, but only 350 and 400 are read: 590 and 600.
+    let measured = Measured {
+        runs: vec![
+            speed_run(300.0, 500.0),
+            speed_run(350.0, 590.0),
+            speed_run(400.0, 600.0),
+        ],
+        ..Measured::default()
+    };
+    let row = &judge_case(&a, Some(&measured), false, &Others::none())[1];
+    assert_eq!(
+        (row.status, row.values.as_slice()),
+        (Status::Pass, [590.0, 600.0].as_slice())
+    );
+    for (bad, expect) in [
+        (
+            "trend = \"constant\"\ntolerance = 0.05\nwhy = \"w\"\namong = [350.0, 410.0]",
+            "410 is not one of the series values",
+        ),
+        (
+            "trend = \"constant\"\ntolerance = 0.05\nwhy = \"w\"\namong = [350.0]",
+            "two or more for a direction or a constant",
+        ),
+    ] {
+        let e = case(bad).unwrap_err().to_string();
+        assert!(
+            e.contains(expect) && e.contains("results[1].among"),
+            "expected `{expect}` in:\n{e}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A run measured alone at the end of its series (`--last 1`, the earlier values not run) is
+/// drawn from its own folder, numbered by its place in the series.
+#[test]
+fn a_curve_is_read_from_the_folder_of_its_place_in_the_series() {
+    let root = scratch("curve-folder");
+    let (_, a) = two_cases(&root, "[30.0, 40.0]");
+    let path = root.join("validation/seed002/a.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("values = [300.0, 400.0]", "values = [300.0, 350.0, 400.0]");
+    let plot = "[[plots]]\nname = \"p\"\ntitle = \"t\"\n\
+        x = { file = \"history.csv\", column = \"time\", label = \"t\" }\n\
+        y = { file = \"history.csv\", column = \"speed\", label = \"v\" }\n";
+    std::fs::write(
+        &path,
+        text.replace("[[results]]", &format!("{plot}[[results]]")),
+    )
+    .unwrap();
+    let a_three = LoadedCase::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(a.case.plots.len(), a_three.case.plots.len());
+    let runs = root.join("runs");
+    for (k, speed) in [(0, 1.0), (2, 3.0)] {
+        let dir = runs.join(format!("run_{k:04}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("history.csv"),
+            format!("time,speed\n0,{speed}\n1,{speed}\n"),
+        )
+        .unwrap();
+    }
+    let measured = Measured {
+        size: "full".into(),
+        runs: vec![speed_run(300.0, 0.0), speed_run(400.0, 0.0)],
+        ..Measured::default()
+    };
+    let curves = column_curves(&a_three, &a_three.case.plots[0], &measured, &runs).unwrap();
+    let speeds: Vec<f64> = curves.iter().map(|(_, points)| points[0].1).collect();
+    assert_eq!(speeds, [1.0, 3.0], "{curves:?}");
     let _ = std::fs::remove_dir_all(&root);
 }
 
