@@ -70,8 +70,12 @@ impl Precrack {
         Ok(())
     }
 
-    /// True if the straight bond from `p` to `q` crosses the crack surface. Endpoints lying
-    /// exactly on the crack do not count as crossing.
+    /// True if the straight bond from `p` to `q` crosses the crack surface. A node lying
+    /// exactly on the crack's line (plane) counts as lying on its positive side (left of the
+    /// segment's direction; along the rectangle's normal edge1 × edge2): a crack laid along a
+    /// row of nodes, as a lattice puts one on a mid-line, then separates that row from the
+    /// nodes on the other side. Were such nodes on neither side, none of their bonds would be
+    /// cut and the row would bridge the crack's faces.
     pub fn cuts(&self, p: &[f64], q: &[f64]) -> bool {
         match self {
             Precrack::Segment { start, end } => segments_cross(p, q, start, end),
@@ -83,7 +87,7 @@ impl Precrack {
                 let n = cross(edge1, edge2);
                 let dp = (0..3).map(|k| (p[k] - origin[k]) * n[k]).sum::<f64>();
                 let dq = (0..3).map(|k| (q[k] - origin[k]) * n[k]).sum::<f64>();
-                if dp * dq >= 0.0 {
+                if (dp >= 0.0) == (dq >= 0.0) {
                     return false;
                 }
                 let t = dp / (dp - dq);
@@ -116,12 +120,12 @@ fn orient(a: &[f64], b: &[f64], c: &[f64]) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
 
-/// Proper crossing of segments pq and ab; touching at an endpoint of pq does not count, while
-/// a bond passing through an end of the crack segment does (the crack tip cuts it).
+/// Whether pq crosses the segment ab: p and q on different sides of ab's line (a point on
+/// the line on its left side, `Precrack::cuts`) and the crossing within ab; a bond passing
+/// through an end of the crack segment counts (the crack tip cuts it).
 fn segments_cross(p: &[f64], q: &[f64], a: &[f64; 2], b: &[f64; 2]) -> bool {
-    let d1 = orient(a, b, p);
-    let d2 = orient(a, b, q);
-    if d1 * d2 >= 0.0 {
+    let left = |x: &[f64]| orient(a, b, x) >= 0.0;
+    if left(p) == left(q) {
         return false;
     }
     let d3 = orient(p, q, a);
@@ -142,10 +146,45 @@ mod tests {
         assert!(c.cuts(&[0.5, -0.1], &[0.5, 0.1]));
         assert!(!c.cuts(&[1.5, -0.1], &[1.5, 0.1]));
         assert!(!c.cuts(&[0.5, 0.1], &[0.6, 0.2]));
-        assert!(
-            !c.cuts(&[0.5, 0.0], &[0.5, 0.2]),
-            "endpoint on the crack does not cut"
-        );
+        // A node on the crack belongs to its left side (here above): its bonds down are cut,
+        // its bonds up are not, and a bond along the crack is not.
+        assert!(!c.cuts(&[0.5, 0.0], &[0.5, 0.2]));
+        assert!(c.cuts(&[0.5, 0.0], &[0.5, -0.2]));
+        assert!(c.cuts(&[0.5, -0.2], &[0.5, 0.0]));
+        assert!(!c.cuts(&[0.2, 0.0], &[0.6, 0.0]));
+        // Beyond the crack's end a node on its line is not separated from anything.
+        assert!(!c.cuts(&[1.5, 0.0], &[1.5, -0.2]));
+    }
+
+    /// A crack along a row of a lattice cuts exactly the bonds a crack between that row and
+    /// the row below cuts: every bond from the row and above to the rows below (the crack
+    /// runs through the whole patch: its tip cuts by where the bonds pass its end). With nodes on the crack on neither side, none of the row's bonds were
+    /// cut, and the row bridged the crack.
+    #[test]
+    fn a_crack_along_a_row_of_nodes_cuts_as_one_between_rows() {
+        let (dx, horizon) = (1.0, 3.0);
+        let nodes: Vec<[f64; 2]> = (-8..=8)
+            .flat_map(|i| (-8..=8).map(move |j| [i as f64 * dx, j as f64 * dx]))
+            .collect();
+        let cut = |y: f64| {
+            let crack = Precrack::Segment {
+                start: [-20.0, y],
+                end: [20.0, y],
+            };
+            let mut n = 0;
+            for p in &nodes {
+                for q in &nodes {
+                    let r = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+                    if r > 0.0 && r <= horizon && crack.cuts(p, q) {
+                        n += 1;
+                    }
+                }
+            }
+            n
+        };
+        let between_rows = cut(-0.5 * dx);
+        assert!(between_rows > 100, "{between_rows}");
+        assert_eq!(cut(0.0), between_rows);
     }
 
     /// A segment given by its length and angle cuts the bonds the segment to its end cuts:
