@@ -158,8 +158,8 @@ mod tests {
 
     /// A crack along a row of a lattice cuts exactly the bonds a crack between that row and
     /// the row below cuts: every bond from the row and above to the rows below (the crack
-    /// runs through the whole patch: its tip cuts by where the bonds pass its end). With nodes on the crack on neither side, none of the row's bonds were
-    /// cut, and the row bridged the crack.
+    /// runs through the whole patch, so no tip decides). With nodes on the crack on neither
+    /// side, none of the row's bonds were cut, and the row bridged the crack.
     #[test]
     fn a_crack_along_a_row_of_nodes_cuts_as_one_between_rows() {
         let (dx, horizon) = (1.0, 3.0);
