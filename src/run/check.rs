@@ -41,12 +41,11 @@ pub struct TimeEstimate {
 /// A quasi-static run's estimate: its first load step relaxes from rest, every later one
 /// from the predictor's extrapolation, and each costs its iterations × the time of one
 /// iteration (one force evaluation and the vector updates). Both steps are taken on the
-/// built model with at most `PROBE_ITERATIONS` iterations (and `PROBE_BOND_EVALUATIONS`) each; a
-/// relaxation that did not converge in them is extrapolated at its mean rate of decrease
-/// (linear convergence). The
-/// estimate is that of a body that does not break: a load step in which bonds break
-/// relaxes again after every decision, and one in which a crack runs through takes many
-/// relaxations (`CRACK_STEP_RATIO`).
+/// built model with at most `PROBE_ITERATIONS` iterations (and `PROBE_BOND_EVALUATIONS`)
+/// each; a relaxation that did not converge in them is extrapolated at its mean rate of
+/// decrease (linear convergence). The estimate is that of a body that does not break: a load
+/// step in which bonds break relaxes again after every decision, and one in which a crack
+/// runs through takes many relaxations (`CRACK_STEP_RATIO`).
 #[derive(Debug, Clone, Copy)]
 pub struct QuasiStaticBasis {
     pub seconds_per_iteration: f64,
@@ -177,9 +176,9 @@ fn time_steps<const D: usize, M: Material<D>>(
 }
 
 /// A quasi-static run's first two load steps, each with at most `PROBE_ITERATIONS`
-/// iterations and about `PROBE_BOND_EVALUATIONS` (see `QuasiStaticBasis`); `bonds` counts
-/// each pair once; `None` for a run of no load steps or when a
-/// relaxation fails or does not decrease the residual (the run itself will say why).
+/// iterations and about `PROBE_BOND_EVALUATIONS` (see `QuasiStaticBasis`; `bonds` counts
+/// each pair once); `None` for a run of no load steps or when a relaxation fails or does not
+/// decrease the residual (the run itself will say why).
 fn time_load_steps<const D: usize, M: Material<D>>(
     sim: &mut Simulation<D, M>,
     settings: QuasiStaticSettings,
