@@ -185,6 +185,11 @@ pub enum CheckpointError {
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
 
+/// FNV-1a 64 of `bytes`: a fingerprint stable across Rust versions and machines.
+pub fn fnv1a_64(bytes: &[u8]) -> u64 {
+    fnv1a(FNV_OFFSET, bytes)
+}
+
 /// FNV-1a 64 continued from `hash` over `bytes`: simple, and stable across Rust versions
 /// (unlike std's `DefaultHasher`).
 fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {

@@ -30,6 +30,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+pub mod kept_runs;
 mod over_ranks;
 pub mod run_folder;
 use run_folder::Start;
@@ -66,6 +67,9 @@ pub struct StudyOptions {
     /// Runs of the design before this index are left out: not run now (those finished in an
     /// earlier invocation's `runs.csv` are still read). 0: every run.
     pub from_run: usize,
+    /// A copy of the finished runs kept outside `out_dir` (`kept_runs`): read at the start,
+    /// rewritten after every run.
+    pub kept_runs: Option<PathBuf>,
 }
 
 /// Why a study stopped.
@@ -109,8 +113,10 @@ pub struct StudyReport {
     pub method: StudyMethod,
     pub factors: Vec<String>,
     pub runs: Vec<RunRecord>,
-    /// Runs taken from an earlier invocation's `runs.csv`.
+    /// Runs taken from an earlier invocation (its `runs.csv`, or the kept runs).
     pub reused: usize,
+    /// Each run's wall minutes, where known (a run finished, its folder or the kept runs).
+    pub minutes: Vec<Option<f64>>,
     /// Morris: each output's name and its factors' statistics.
     pub effects: Vec<(String, Vec<FactorEffect>)>,
     pub out_dir: PathBuf,
@@ -349,6 +355,30 @@ pub fn run_study_over(
             }
         }
     }
+    // Runs finished on another machine (no folder here) are taken from the kept runs.
+    let fingerprints: Vec<String> = decks
+        .iter()
+        .map(|d| kept_runs::fingerprint(&d.src, &ls.study.outputs))
+        .collect();
+    let mut minutes: Vec<Option<f64>> = (0..runs.len())
+        .map(|k| run_folder::wall_minutes(&run_folder::of_run(&runs_dir, k)))
+        .collect();
+    let kept = opts.kept_runs.as_deref();
+    if let Some(path) = kept {
+        let found = kept_runs::read(path, &header, &runs, &fingerprints);
+        for ((run, found), minutes) in runs.iter_mut().zip(found).zip(&mut minutes) {
+            if let (true, Some(found)) = (run.status.is_empty(), found) {
+                (run.status, run.outputs, *minutes) = (found.status, found.outputs, found.minutes);
+                reused += 1;
+            }
+        }
+    }
+    let keep = |runs: &[RunRecord], minutes: &[Option<f64>]| match kept {
+        Some(path) if root => kept_runs::write(path, &header, runs, minutes, &fingerprints)
+            .map_err(|e| io("write", path, e)),
+        _ => Ok(()),
+    };
+    keep(&runs, &minutes)?;
     let total = runs.len();
     let mut pending: Vec<usize> = (opts.from_run..total)
         .filter(|&k| runs[k].status.is_empty())
@@ -386,7 +416,10 @@ pub fn run_study_over(
         for (&k, outcome) in round.iter().zip(outcomes) {
             runs[k].status = outcome.status;
             runs[k].outputs = outcome.outputs;
+            minutes[k] = run_folder::wall_minutes(&run_folder::of_run(&runs_dir, k))
+                .or(Some(outcome.seconds / 60.0));
             write_runs(&table_path, &header, &runs).map_err(|e| io("write", &table_path, e))?;
+            keep(&runs, &minutes)?;
             if !opts.quiet {
                 print_run(ls, &runs[k], (k, total), outcome.seconds);
             }
@@ -405,6 +438,7 @@ pub fn run_study_over(
         factors: ls.study.factors.iter().map(|f| f.key.clone()).collect(),
         runs,
         reused,
+        minutes,
         effects,
         out_dir: opts.out_dir.clone(),
     })

@@ -283,6 +283,7 @@ fn study<'py>(
                 threads,
                 quiet,
                 from_run: 0,
+                kept_runs: None,
             };
             let report = run_study(&ls, &opts).map_err(|e| match e {
                 peridyn::study_run::StudyRunError::Deck(d) => Failure::from(d),

@@ -39,6 +39,7 @@ pub(super) fn run_command(command: Command, ranks: Arc<dyn Ranks>) -> ExitCode {
                 threads,
                 quiet,
                 from_run: 0,
+                kept_runs: None,
             };
             match LoadedStudy::from_file(&study) {
                 Ok(ls) => study_over(&ls, &opts, ranks),

@@ -208,6 +208,7 @@ grid written to {}",
                     threads,
                     quiet,
                     from_run: 0,
+                    kept_runs: None,
                 },
             )
             .map_err(|e| e.to_string())?;

@@ -148,6 +148,7 @@ mod tests {
             threads: Some(1),
             quiet: true,
             from_run: 0,
+            kept_runs: None,
         }
     }
 

@@ -91,6 +91,14 @@ impl Layout {
             .join(format!("{}.toml", Self::key(case)))
     }
 
+    /// The finished runs of a screening case's full study, kept as they end
+    /// (`study_run::kept_runs`).
+    pub fn kept_runs_file(&self, case: &LoadedCase) -> PathBuf {
+        self.root
+            .join("measured")
+            .join(format!("{}.runs.csv", Self::key(case)))
+    }
+
     /// `docs/` beside `validation/`.
     pub fn docs(&self) -> PathBuf {
         self.root.parent().unwrap_or(Path::new(".")).join("docs")
@@ -138,18 +146,19 @@ pub fn run_case(
     };
     let out = case_dir(case, opts);
     if case.screening.is_some() {
-        // A screening is measured whole: its statistics need every run of the design.
+        // A screening is measured whole: its statistics need every run of the design. Its
+        // full runs are kept beside the measurement as they end, so that the screening,
+        // hours long, continues on another machine from the committed ones.
         let options = StudyOptions {
             out_dir: out.clone(),
             threads: opts.threads,
             quiet: opts.quiet,
             from_run: 0,
+            kept_runs: (!opts.reduced).then(|| layout.kept_runs_file(case)),
         };
         let report = run_study_over(&study, &options, &spread).map_err(|e| e.to_string())?;
         if root {
-            let minutes = (0..report.runs.len())
-                .filter_map(|k| run_folder::wall_minutes(&run_folder::of_run(&out.join("runs"), k)))
-                .sum();
+            let minutes = report.minutes.iter().flatten().sum();
             let outputs: Vec<String> = study.study.outputs.iter().map(|o| o.name.clone()).collect();
             let run = screening::measure(&report, &outputs, minutes);
             measured.wall_minutes = run.wall_minutes;
@@ -180,6 +189,7 @@ pub fn run_case(
                 threads: opts.threads,
                 quiet: opts.quiet,
                 from_run,
+                kept_runs: None,
             },
             &spread,
         )

@@ -666,6 +666,7 @@ fn a_study_run_left_midway_continues_from_its_checkpoint() {
             threads: Some(1),
             quiet: true,
             from_run: 0,
+            kept_runs: None,
         };
         run_study(&ls, &opts).unwrap()
     };

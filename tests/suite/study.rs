@@ -66,6 +66,7 @@ fn options(dir: &Path) -> StudyOptions {
         threads: Some(2),
         quiet: true,
         from_run: 0,
+        kept_runs: None,
     }
 }
 
@@ -196,6 +197,69 @@ fn a_stopped_study_continues_with_the_same_results() {
             .map(|r| r.values.clone())
             .collect::<Vec<_>>()
     );
+}
+
+/// A study whose output folder is lost (another machine) continues from the runs kept
+/// outside it: the kept runs are not run again and give the same statistics; a kept run
+/// whose deck or outputs differ from the design's is run again.
+#[test]
+fn kept_runs_outlive_the_output_folder() {
+    let dir = scratch("kept");
+    let kept = dir.join("kept.runs.csv");
+    let with_kept = |dir: &Path| StudyOptions {
+        kept_runs: Some(kept.clone()),
+        ..options(dir)
+    };
+    let ls = LoadedStudy::from_file(&study_file(&dir, MORRIS)).unwrap();
+    let first = run_study(&ls, &with_kept(&dir)).unwrap();
+    assert_eq!(first.failed(), 0);
+    let text = std::fs::read_to_string(&kept).unwrap();
+    assert!(text.starts_with(
+        "run,trajectory,material.youngs_modulus,material.density,reaction,minutes,fingerprint,status\n"
+    ));
+    assert_eq!(text.lines().count(), 1 + first.runs.len());
+    assert!(first.minutes.iter().all(|m| m.is_some_and(|m| m > 0.0)));
+
+    // The folder gone: nothing runs, and the runs, their minutes and the statistics are the
+    // first invocation's, bitwise.
+    std::fs::remove_dir_all(dir.join("out")).unwrap();
+    let second = run_study(&ls, &with_kept(&dir)).unwrap();
+    assert_eq!(second.reused, first.runs.len());
+    assert!(
+        !dir.join("out/runs/run_0000").exists(),
+        "a kept run ran again"
+    );
+    assert_eq!(first.runs, second.runs);
+    assert_eq!(first.minutes, second.minutes);
+    assert_eq!(first.effects, second.effects);
+
+    // One kept row from another deck (its fingerprint differs): that run alone runs again,
+    // with the same result.
+    std::fs::remove_dir_all(dir.join("out")).unwrap();
+    let row = text.lines().nth(3).unwrap();
+    let print = row.split(',').nth_back(1).unwrap();
+    std::fs::write(
+        &kept,
+        text.replace(row, &row.replace(print, "0000000000000000")),
+    )
+    .unwrap();
+    let third = run_study(&ls, &with_kept(&dir)).unwrap();
+    assert_eq!(third.reused, first.runs.len() - 1);
+    assert!(dir.join("out/runs/run_0002/deck.toml").exists());
+    assert_eq!(first.runs, third.runs);
+
+    // An output redefined under the same name: every kept run runs again.
+    std::fs::remove_dir_all(dir.join("out")).unwrap();
+    let path = study_file(&dir, MORRIS);
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("reduce = \"final\"", "reduce = \"mean\""),
+    )
+    .unwrap();
+    let fourth = run_study(&LoadedStudy::from_file(&path).unwrap(), &with_kept(&dir)).unwrap();
+    assert_eq!(fourth.reused, 0);
+    assert_ne!(first.runs, fourth.runs);
 }
 
 #[test]
