@@ -436,7 +436,11 @@ pub fn build_model_with<const D: usize>(
     let families = Families {
         rule,
         bytes_per_bond: memory::bytes_per_bond(
-            Bonds::BYTES_PER_BOND + 8 * history + exact + relaxation,
+            Bonds::BYTES_PER_BOND
+                + crate::solver::damage_cache::BYTES_PER_BOND
+                + 8 * history
+                + exact
+                + relaxation,
         ),
         bytes_per_node: per_node,
     };

@@ -1119,23 +1119,26 @@ impl<const D: usize, M: Material<D>> ForceEngine<D, M> {
     pub fn damage(&self, body: &Body<D>, bonds: &Bonds, state: &State<D>) -> Vec<f64> {
         (0..body.len())
             .into_par_iter()
-            .map(|i| {
-                let (mut broken, mut total) = (0.0, 0.0);
-                for b in bonds.family(i) {
-                    let j = bonds.neighbors[b] as usize;
-                    let w = self.quad.phi_pair(b, i, j, bonds.ref_lengths[b]).0 * body.volumes[j];
-                    total += w;
-                    if state.status[b] & OWN_BROKEN != 0 {
-                        broken += w;
-                    }
-                }
-                if total > 0.0 {
-                    broken / total
-                } else {
-                    0.0
-                }
-            })
+            .map(|i| self.node_damage(i, body, bonds, state))
             .collect()
+    }
+
+    /// Node i's damage index (as `damage`).
+    pub fn node_damage(&self, i: usize, body: &Body<D>, bonds: &Bonds, state: &State<D>) -> f64 {
+        let (mut broken, mut total) = (0.0, 0.0);
+        for b in bonds.family(i) {
+            let j = bonds.neighbors[b] as usize;
+            let w = self.quad.phi_pair(b, i, j, bonds.ref_lengths[b]).0 * body.volumes[j];
+            total += w;
+            if state.status[b] & OWN_BROKEN != 0 {
+                broken += w;
+            }
+        }
+        if total > 0.0 {
+            broken / total
+        } else {
+            0.0
+        }
     }
 
     /// Stable time step of Silling & Askari (2005): Δt < sqrt(2ρ_i / k_i) at every node, with

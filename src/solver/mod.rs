@@ -6,6 +6,7 @@ pub mod coarse_space;
 pub mod contact;
 pub mod contact_halo;
 pub mod cross_bonds;
+pub mod damage_cache;
 pub mod dissipation;
 pub mod forces;
 pub mod impactor;

@@ -2,6 +2,7 @@
 //! bookkeeping (kinetic, strain, external work, viscous dissipation).
 
 use super::contact::NodeContact;
+use super::damage_cache::DamageCache;
 use super::impactor::{Impactor, Impactors};
 use super::ranks::{agreed_uniform, ordered_fold, ordered_sum, Share};
 use super::ForceEngine;
@@ -72,6 +73,8 @@ pub struct Simulation<const D: usize, M: Material<D>> {
     pub(super) constrained_mask: Vec<[bool; 3]>,
     /// This process's share of a distributed run (`None`: the whole body, one process).
     pub share: Option<Arc<Share>>,
+    /// The damage observers last read, kept to compute again only where bonds broke.
+    damage_seen: DamageCache,
 }
 
 impl<const D: usize, M: Material<D>> Simulation<D, M> {
@@ -164,6 +167,7 @@ impl<const D: usize, M: Material<D>> Simulation<D, M> {
             constrained,
             constrained_mask: mask,
             share,
+            damage_seen: DamageCache::default(),
         };
         sim.loading
             .apply_displacements(&sim.body, &mut sim.state, 0.0);
@@ -582,7 +586,8 @@ impl<const D: usize, M: Material<D>> Fields<D> for Simulation<D, M> {
         &self.engine.quad
     }
     fn damage(&self) -> Vec<f64> {
-        self.engine.damage(&self.body, &self.bonds, &self.state)
+        self.damage_seen
+            .damage(&self.engine, &self.body, &self.bonds, &self.state)
     }
     fn energy_density(&self) -> Vec<f64> {
         self.engine

@@ -328,8 +328,9 @@ fn the_memory_estimate_counts_the_relaxations_copies() {
         .replace("spacing = 80e-6 ", "spacing = 250e-6 ");
     let ld = LoadedDeck::from_str(&text, &path).unwrap_or_else(|e| panic!("{e}"));
     let r = check(&ld, Some(1)).unwrap();
-    // LPS under one critical energy: a status byte and two work words per directed bond.
-    assert_eq!(r.bytes_per_bond, 4 + 8 + 1 + 16);
+    // LPS under one critical energy: a status byte (and the observers' copy of it) and two
+    // work words per directed bond.
+    assert_eq!(r.bytes_per_bond, 4 + 8 + 1 + 1 + 16);
     assert_eq!(r.relaxation_bytes_per_bond, 2 * (1 + 16));
     let directed = 2 * r.bonds;
     assert!(r.memory_bytes > directed * (r.bytes_per_bond + r.relaxation_bytes_per_bond));

@@ -16,7 +16,7 @@ use peridyn::material::{
     Dimensionality, Elasticity, Influence, Lps, Material, MicromodulusProfile, Pmb,
 };
 use peridyn::run::{run, RunOptions};
-use peridyn::solver::Simulation;
+use peridyn::solver::{Fields, Simulation};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -383,6 +383,39 @@ fn lps_3d_api_is_bitwise_identical_with_1_and_2_threads() {
         u1 == u2,
         "displacement/velocity/force bits differ between 1 and 2 threads"
     );
+}
+
+/// The damage observers read (kept between requests, computed again only at nodes whose bonds
+/// changed) is bitwise a full pass over every bond, sampled while the bar fractures.
+#[test]
+fn the_damage_observers_read_is_a_full_pass_while_bonds_break() {
+    let material = Lps::new(
+        bar_elasticity(),
+        Influence::Constant,
+        BAR_DELTA,
+        1000.0,
+        1.0,
+    );
+    let mut sim = bar_3d_sim(material, CriticalStretch::new(2.0e-3).into());
+    let (mut samples, mut changed) = (0, 0);
+    let mut before = Fields::damage(&sim);
+    for step in 1..=400 {
+        sim.step().unwrap();
+        if step % 7 == 0 {
+            let seen = Fields::damage(&sim);
+            let full = sim.engine.damage(&sim.body, &sim.bonds, &sim.state);
+            let bits = |d: &[f64]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&seen), bits(&full), "step {step}");
+            changed += usize::from(seen != before);
+            samples += 1;
+            before = seen;
+        }
+    }
+    println!(
+        "{samples} samples, {changed} with new damage, {} bonds broken",
+        sim.state.broken
+    );
+    assert!(changed >= 3, "the bar must break over several samples");
 }
 
 /// The 3D bar breaking on energy, PMB, LPS and correspondence (the AVX2 critical-energy
