@@ -45,12 +45,15 @@ pub enum Spread {
     /// Each run one model over every rank, the runs one after another (`peridyn validate`: a
     /// case's finest grid needs them all; `over_ranks`).
     RunOverRanks(Arc<dyn Ranks>),
+    /// One process runs `n` runs side by side, the threads shared out among them: many small
+    /// runs (a screening's) use the cores better so than each over all the threads.
+    AtOnce(usize),
 }
 
 impl Spread {
     fn ranks(&self) -> Option<&Arc<dyn Ranks>> {
         match self {
-            Spread::Alone => None,
+            Spread::Alone | Spread::AtOnce(_) => None,
             Spread::RunPerRank(r) | Spread::RunOverRanks(r) => Some(r),
         }
     }
@@ -276,10 +279,12 @@ fn describe(ls: &LoadedStudy, values: &[f64]) -> String {
 fn plan(
     ls: &LoadedStudy,
     threads: Option<usize>,
-) -> Result<(Design, Vec<RunRecord>, Vec<LoadedDeck>), StudyRunError> {
+) -> Result<(Design, Vec<RunRecord>, Vec<LoadedDeck>, usize), StudyRunError> {
     let design = Design::of(ls)?;
     let runs = design.records();
     let mut decks = Vec::with_capacity(runs.len());
+    // The largest run's predicted memory (bytes): how many fit side by side.
+    let mut largest = 0;
     for (k, run) in runs.iter().enumerate() {
         let point = |error: String| StudyRunError::Point {
             run: k,
@@ -288,10 +293,11 @@ fn plan(
         };
         let text = point_deck(ls, &run.values).map_err(StudyRunError::Design)?;
         let deck = LoadedDeck::from_str(&text, &ls.base.file).map_err(|e| point(e.to_string()))?;
-        check(&deck, threads).map_err(|e| point(e.to_string()))?;
+        let model = check(&deck, threads).map_err(|e| point(e.to_string()))?;
+        largest = largest.max(model.memory_bytes);
         decks.push(deck);
     }
-    Ok((design, runs, decks))
+    Ok((design, runs, decks, largest))
 }
 
 /// The runs a study would make, each point's deck validated: `peridyn study --dry-run`.
@@ -316,10 +322,11 @@ pub fn run_study_over(
     opts: &StudyOptions,
     spread: &Spread,
 ) -> Result<StudyReport, StudyRunError> {
-    let (design, mut runs, decks) = plan(ls, opts.threads)?;
+    let (design, mut runs, decks, largest) = plan(ls, opts.threads)?;
     // This rank's place in each round of runs, and the runs in a round.
     let (slot, size) = match spread {
         Spread::Alone | Spread::RunOverRanks(_) => (0, 1),
+        Spread::AtOnce(n) => (0, fitting_side_by_side(*n, largest)),
         Spread::RunPerRank(r) => (r.rank(), r.size()),
     };
     let root = spread.ranks().is_none_or(|r| r.rank() == 0);
@@ -388,9 +395,12 @@ pub fn run_study_over(
     }
     // A run's progress lines (a long run, or a long quasi-static load step, that printed
     // nothing would look hung); not when the ranks take several runs at once.
-    let progress = !opts.quiet && !matches!(spread, Spread::RunPerRank(_));
+    let progress = !opts.quiet && matches!(spread, Spread::Alone | Spread::RunOverRanks(_));
     for round in rounds(&pending, size) {
-        let mine = round.get(slot).map(|&k| {
+        let mine = round
+            .get(slot)
+            .filter(|_| !matches!(spread, Spread::AtOnce(_)));
+        let mine = mine.map(|&k| {
             let dir = run_folder::of_run(&runs_dir, k);
             match spread {
                 Spread::RunOverRanks(r) => {
@@ -401,6 +411,7 @@ pub fn run_study_over(
         });
         let outcomes = match spread {
             Spread::Alone => Some(vec![mine.expect("one rank runs every run")?]),
+            Spread::AtOnce(_) => Some(run_at_once(ls, opts, &decks, &runs_dir, round)?),
             Spread::RunOverRanks(_) => {
                 let mine = mine.expect("every rank runs every run")?;
                 root.then(|| vec![mine])
@@ -446,6 +457,48 @@ pub fn run_study_over(
 
 fn io(what: &str, path: &Path, e: std::io::Error) -> StudyRunError {
     StudyRunError::Io(format!("cannot {what} {}: {e}", path.display()))
+}
+
+/// How many of `n` runs of at most `bytes` each fit in this machine's memory together (at
+/// least one: a single run that does not fit was refused when it was planned).
+fn fitting_side_by_side(n: usize, bytes: usize) -> usize {
+    let fit = crate::memory::available_bytes().map_or(n, |a| (a / bytes.max(1) as u64) as usize);
+    n.min(fit).max(1)
+}
+
+/// The runs of `round` side by side, each on its own threads (`opts.threads` shared out, at
+/// least one each), without progress lines (theirs would interleave); their outcomes in the
+/// round's order. Each run is the run it would be alone, bit for bit.
+fn run_at_once(
+    ls: &LoadedStudy,
+    opts: &StudyOptions,
+    decks: &[LoadedDeck],
+    runs_dir: &Path,
+    round: &[usize],
+) -> Result<Vec<Outcome>, StudyRunError> {
+    let threads = opts
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let each = StudyOptions {
+        threads: Some((threads / round.len()).max(1)),
+        ..opts.clone()
+    };
+    std::thread::scope(|scope| {
+        let running: Vec<_> = round
+            .iter()
+            .map(|&k| {
+                let (each, dir) = (&each, run_folder::of_run(runs_dir, k));
+                scope.spawn(move || run_point(ls, each, &decks[k], &dir, false))
+            })
+            .collect();
+        running
+            .into_iter()
+            .map(|r| {
+                r.join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            })
+            .collect()
+    })
 }
 
 /// Runs one design point's `deck` in `dir`, or continues it from the checkpoint a stopped
@@ -706,25 +759,37 @@ fn resume(
         if cells.len() != found.len() {
             continue;
         }
-        let Some(k) = cells[0].parse::<usize>().ok().filter(|&k| k < runs.len()) else {
+        let Some((k, _)) = row_of_design(&cells, runs) else {
             continue;
         };
-        let run = &mut runs[k];
-        let first = if run.trajectory.is_some() { 2 } else { 1 };
-        let n = run.values.len();
-        let same = cells[first..first + n]
-            .iter()
-            .zip(&run.values)
-            .all(|(c, v)| c.parse::<f64>().ok() == Some(*v));
         let status = cells[cells.len() - 1];
-        if !same || status.is_empty() || !same_deck(k) {
+        if status.is_empty() || !same_deck(k) {
             continue;
         }
-        run.outputs = vec![None; outputs];
-        run.status = status.to_string();
+        runs[k].outputs = vec![None; outputs];
+        runs[k].status = status.to_string();
         reused += 1;
     }
     reused
+}
+
+/// The design's run a row of `runs.csv` (or of the kept runs) records, if its index and
+/// factor values are that run's: the index and the column after the factors.
+fn row_of_design(cells: &[&str], runs: &[RunRecord]) -> Option<(usize, usize)> {
+    let k = cells
+        .first()?
+        .parse::<usize>()
+        .ok()
+        .filter(|&k| k < runs.len())?;
+    let run = &runs[k];
+    let first = if run.trajectory.is_some() { 2 } else { 1 };
+    let end = first + run.values.len();
+    let same = cells
+        .get(first..end)?
+        .iter()
+        .zip(&run.values)
+        .all(|(c, v)| c.parse::<f64>().ok() == Some(*v));
+    same.then_some((k, end))
 }
 
 /// Morris statistics of every output, `morris.csv` and the μ*–σ plots.

@@ -63,23 +63,16 @@ pub fn read(
         if cells.len() != header.len() {
             continue;
         }
-        let Some(k) = cells[0].parse::<usize>().ok().filter(|&k| k < runs.len()) else {
+        let Some((k, end)) = super::row_of_design(&cells, runs) else {
             continue;
         };
-        let run = &runs[k];
-        let first = if run.trajectory.is_some() { 2 } else { 1 };
-        let n = run.values.len();
-        let same_values = cells[first..first + n]
-            .iter()
-            .zip(&run.values)
-            .all(|(c, v)| c.parse::<f64>().ok() == Some(*v));
         let [minutes, print, status] = cells[cells.len() - 3..] else {
             continue;
         };
-        if !same_values || print != fingerprints[k] || status.is_empty() {
+        if print != fingerprints[k] || status.is_empty() {
             continue;
         }
-        let values = &cells[first + n..first + n + outputs];
+        let values = &cells[end..end + outputs];
         kept[k] = Some(KeptRun {
             status: status.to_string(),
             outputs: values.iter().map(|c| c.parse().ok()).collect(),

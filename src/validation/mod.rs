@@ -156,6 +156,12 @@ pub fn run_case(
             from_run: 0,
             kept_runs: (!opts.reduced).then(|| layout.kept_runs_file(case)),
         };
+        // Its runs are small: one per thread side by side uses the cores better than each
+        // over all of them.
+        let spread = match over {
+            Some(_) => spread,
+            None => Spread::AtOnce(measured.threads),
+        };
         let report = run_study_over(&study, &options, &spread).map_err(|e| e.to_string())?;
         if root {
             let minutes = report.minutes.iter().flatten().sum();

@@ -246,15 +246,19 @@ pub(crate) fn bar_elasticity() -> Elasticity {
 }
 
 /// 3D LPS through the API: a pre-cracked bar pulled at both ends until bonds break.
-fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
-    let material = Lps::new(
+/// The bar's LPS material.
+fn bar_lps() -> Lps {
+    Lps::new(
         bar_elasticity(),
         Influence::Constant,
         BAR_DELTA,
         1000.0,
         1.0,
-    );
-    bar_3d_run(threads, material, CriticalStretch::new(2.0e-3).into())
+    )
+}
+
+fn lps_3d_run(threads: usize) -> (Vec<u64>, Vec<u8>, u64) {
+    bar_3d_run(threads, bar_lps(), CriticalStretch::new(2.0e-3).into())
 }
 
 /// A critical energy at which the pulled bar fractures (G0 = 0.1 J/m²), tension only.
@@ -389,14 +393,7 @@ fn lps_3d_api_is_bitwise_identical_with_1_and_2_threads() {
 /// changed) is bitwise a full pass over every bond, sampled while the bar fractures.
 #[test]
 fn the_damage_observers_read_is_a_full_pass_while_bonds_break() {
-    let material = Lps::new(
-        bar_elasticity(),
-        Influence::Constant,
-        BAR_DELTA,
-        1000.0,
-        1.0,
-    );
-    let mut sim = bar_3d_sim(material, CriticalStretch::new(2.0e-3).into());
+    let mut sim = bar_3d_sim(bar_lps(), CriticalStretch::new(2.0e-3).into());
     let (mut samples, mut changed) = (0, 0);
     let mut before = Fields::damage(&sim);
     for step in 1..=400 {

@@ -5,7 +5,7 @@
 //! bad study files are refused at their line and key.
 
 use peridyn::deck::study::LoadedStudy;
-use peridyn::study_run::{plan_study, run_study, StudyOptions};
+use peridyn::study_run::{plan_study, run_study, run_study_over, Spread, StudyOptions};
 use std::path::{Path, PathBuf};
 
 fn scratch(tag: &str) -> PathBuf {
@@ -59,6 +59,19 @@ key = "material.density"
 min = 500.0
 max = 2000.0
 "#;
+
+/// `MORRIS` with its output redefined under the same name: the mean reaction over the run
+/// instead of the final one.
+fn morris_with_mean_reaction(dir: &Path) -> LoadedStudy {
+    let path = study_file(dir, MORRIS);
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("reduce = \"final\"", "reduce = \"mean\""),
+    )
+    .unwrap();
+    LoadedStudy::from_file(&path).unwrap()
+}
 
 fn options(dir: &Path) -> StudyOptions {
     StudyOptions {
@@ -159,14 +172,7 @@ fn a_stopped_study_continues_with_the_same_results() {
     assert_eq!(first.runs, third.runs);
     // An output redefined under the same name (the final reaction becomes the mean over the
     // run) is read again from every finished run's folder, not taken from the table.
-    let path = study_file(&dir, MORRIS);
-    let text = std::fs::read_to_string(&path).unwrap();
-    std::fs::write(
-        &path,
-        text.replace("reduce = \"final\"", "reduce = \"mean\""),
-    )
-    .unwrap();
-    let fourth = run_study(&LoadedStudy::from_file(&path).unwrap(), &options(&dir)).unwrap();
+    let fourth = run_study(&morris_with_mean_reaction(&dir), &options(&dir)).unwrap();
     assert_eq!(fourth.reused, first.runs.len());
     for (a, b) in first.runs.iter().zip(&fourth.runs) {
         assert_ne!(
@@ -196,6 +202,28 @@ fn a_stopped_study_continues_with_the_same_results() {
             .iter()
             .map(|r| r.values.clone())
             .collect::<Vec<_>>()
+    );
+}
+
+/// Runs side by side in one process (a screening's small runs, one per thread) are the runs
+/// one after another, bit for bit: the same outputs, table and statistics.
+#[test]
+fn runs_side_by_side_are_the_runs_one_after_another() {
+    let dir = scratch("at-once");
+    let ls = LoadedStudy::from_file(&study_file(&dir, MORRIS)).unwrap();
+    let serial = run_study(&ls, &options(&dir)).unwrap();
+    let table = std::fs::read_to_string(dir.join("out/runs.csv")).unwrap();
+    let apart = StudyOptions {
+        out_dir: dir.join("apart"),
+        ..options(&dir)
+    };
+    let side_by_side = run_study_over(&ls, &apart, &Spread::AtOnce(4)).unwrap();
+    assert_eq!(side_by_side.reused, 0);
+    assert_eq!(serial.runs, side_by_side.runs);
+    assert_eq!(serial.effects, side_by_side.effects);
+    assert_eq!(
+        table,
+        std::fs::read_to_string(dir.join("apart/runs.csv")).unwrap()
     );
 }
 
@@ -250,14 +278,7 @@ fn kept_runs_outlive_the_output_folder() {
 
     // An output redefined under the same name: every kept run runs again.
     std::fs::remove_dir_all(dir.join("out")).unwrap();
-    let path = study_file(&dir, MORRIS);
-    let text = std::fs::read_to_string(&path).unwrap();
-    std::fs::write(
-        &path,
-        text.replace("reduce = \"final\"", "reduce = \"mean\""),
-    )
-    .unwrap();
-    let fourth = run_study(&LoadedStudy::from_file(&path).unwrap(), &with_kept(&dir)).unwrap();
+    let fourth = run_study(&morris_with_mean_reaction(&dir), &with_kept(&dir)).unwrap();
     assert_eq!(fourth.reused, 0);
     assert_ne!(first.runs, fourth.runs);
 }
