@@ -132,8 +132,10 @@ pub fn prepare_shared<const D: usize, M: Material<D>>(
     let el: Elasticity = sim.engine.material.elasticity();
     attach_contact(ld, &mut sim, spacing, horizon, el)?;
     let nodes = sim.body.len();
-    let bytes_per_bond =
-        crate::bonds::Bonds::BYTES_PER_BOND + sim.engine.quad.bytes_per_bond() + history_bytes;
+    let bytes_per_bond = crate::bonds::Bonds::BYTES_PER_BOND
+        + crate::solver::damage_cache::BYTES_PER_BOND
+        + sim.engine.quad.bytes_per_bond()
+        + history_bytes;
     let relaxation_bytes_per_bond = ld.deck.relaxation_bytes_per_bond(history_bytes);
     let join = |f: fn(&MaterialReport) -> &str| {
         let mut names: Vec<&str> = reports.iter().map(f).collect();

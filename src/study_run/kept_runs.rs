@@ -100,6 +100,9 @@ pub fn write(
     minutes: &[Option<f64>],
     fingerprints: &[String],
 ) -> std::io::Result<()> {
+    if let Some(folder) = path.parent() {
+        std::fs::create_dir_all(folder)?;
+    }
     let outputs = outputs_in(runs, runs_header);
     let cell = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     let mut text = kept_header(runs_header).join(",") + "\n";
