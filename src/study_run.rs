@@ -46,7 +46,7 @@ pub enum Spread {
     /// case's finest grid needs them all; `over_ranks`).
     RunOverRanks(Arc<dyn Ranks>),
     /// One process runs `n` runs side by side, the threads shared out among them: many small
-    /// runs (a screening's) use the cores better so than each over all the threads.
+    /// runs (a screening's) use the cores better than each run over all the threads.
     AtOnce(usize),
 }
 
