@@ -397,27 +397,22 @@ pub fn run_study_over(
     // nothing would look hung); not when the ranks take several runs at once.
     let progress = !opts.quiet && matches!(spread, Spread::Alone | Spread::RunOverRanks(_));
     for round in rounds(&pending, size) {
-        let mine = round
-            .get(slot)
-            .filter(|_| !matches!(spread, Spread::AtOnce(_)));
-        let mine = mine.map(|&k| {
+        let point = |k: usize| {
             let dir = run_folder::of_run(&runs_dir, k);
-            match spread {
-                Spread::RunOverRanks(r) => {
-                    over_ranks::run_point_over_ranks(ls, opts, &decks[k], &dir, r)
-                }
-                _ => run_point(ls, opts, &decks[k], &dir, progress),
-            }
-        });
+            run_point(ls, opts, &decks[k], &dir, progress)
+        };
         let outcomes = match spread {
-            Spread::Alone => Some(vec![mine.expect("one rank runs every run")?]),
+            Spread::Alone => Some(vec![point(round[0])?]),
             Spread::AtOnce(_) => Some(run_at_once(ls, opts, &decks, &runs_dir, round)?),
-            Spread::RunOverRanks(_) => {
-                let mine = mine.expect("every rank runs every run")?;
+            Spread::RunOverRanks(r) => {
+                let (k, dir) = (round[0], run_folder::of_run(&runs_dir, round[0]));
+                let mine = over_ranks::run_point_over_ranks(ls, opts, &decks[k], &dir, r)?;
                 root.then(|| vec![mine])
             }
             Spread::RunPerRank(r) => {
-                let mine = mine.map(|m| m.map_err(|e| e.to_string()));
+                let mine = round
+                    .get(slot)
+                    .map(|&k| point(k).map_err(|e| e.to_string()));
                 collect(&**r, round.len(), mine).map_err(StudyRunError::Io)?
             }
         };
