@@ -13,7 +13,7 @@
 //! each output against it (`plots/sweep_<output>.png`).
 
 use crate::atomic_file::write_atomic;
-use crate::deck::edit::set_number;
+use crate::deck::edit::{set_number, set_value};
 use crate::deck::study::{LoadedStudy, OutputSpec, Reduce, StudyMethod};
 use crate::deck::{DeckError, KeyPath, LoadedDeck};
 use crate::distributed::study::{collect, rounds, Outcome};
@@ -230,7 +230,7 @@ impl Design {
 fn point_deck(ls: &LoadedStudy, values: &[f64]) -> Result<String, String> {
     let mut text = ls.base.src.clone();
     for f in &ls.study.fixed {
-        text = set_number(&text, &KeyPath::parse(&f.key), f.value)?;
+        text = set_value(&text, &KeyPath::parse(&f.key), &f.value)?;
     }
     for (key, &v) in ls.keys.iter().zip(values) {
         text = set_number(&text, key, v)?;

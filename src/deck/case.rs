@@ -7,7 +7,7 @@
 //! screening case instead names a Morris study file, and its outputs are the screening's
 //! statistics (`screening_outputs`).
 
-use super::edit::number_at;
+use super::edit::{settable, DeckValue};
 use super::study::{FixedSpec, LinkedSpec, LoadedStudy, OutputSpec, StudyFile, StudyMethod};
 use super::{locate_issues, parse_located, DeckError, DeckIssue, KeyPath, LoadedDeck};
 use serde::Deserialize;
@@ -462,22 +462,23 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
             ),
         );
     }
-    let mut key_exists = |path: String, key: &str| {
+    let mut key_exists = |path: String, key: &str, value: &DeckValue| {
         if let Some(src) = deck {
-            if let Err(e) = number_at(src, &KeyPath::parse(key)) {
+            if let Err(e) = settable(src, &KeyPath::parse(key), value) {
                 issue(path, e);
             }
         }
     };
     for (list, name) in [(&case.fixed, "fixed"), (&case.reduced, "reduced")] {
         for (k, f) in list.iter().enumerate() {
-            key_exists(format!("{name}[{k}].key"), &f.key);
+            key_exists(format!("{name}[{k}].key"), &f.key, &f.value);
         }
     }
     if let Some(s) = &case.series {
-        key_exists("series.key".into(), &s.key);
+        let number = DeckValue::Number(0.0);
+        key_exists("series.key".into(), &s.key, &number);
         for (j, l) in s.with.iter().enumerate() {
-            key_exists(format!("series.with[{j}].key"), &l.key);
+            key_exists(format!("series.with[{j}].key"), &l.key, &number);
         }
     }
     if let Some(s) = &case.series {

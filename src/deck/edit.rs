@@ -1,5 +1,5 @@
-//! Numbers in deck text read and replaced by key path (`material.youngs_modulus`,
-//! `boundary_conditions[1].value`), keeping every other byte: comments, layout and line numbers
+//! Numbers (and words: a solver's method) in deck text read and replaced by key path
+//! (`material.youngs_modulus`, `boundary_conditions[1].value`), keeping every other byte: comments, layout and line numbers
 //! stay, so a problem in an edited deck is located where it is in the original.
 
 use super::locate::PathElem;
@@ -33,6 +33,48 @@ pub fn set_number(src: &str, path: &KeyPath, value: f64) -> Result<String, Strin
     Ok(doc.to_string())
 }
 
+/// A value a study or a validation case sets in every run: a number, or a word of the deck
+/// (a solver's `preconditioner = "two_level"`).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(untagged)]
+pub enum DeckValue {
+    Number(f64),
+    Word(String),
+}
+
+impl std::fmt::Display for DeckValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DeckValue::Number(v) => write!(f, "{v}"),
+            DeckValue::Word(w) => write!(f, "\"{w}\""),
+        }
+    }
+}
+
+/// Deck text with the value at `path` replaced by `value`, which must be of the kind the deck
+/// holds there (a number for a number, a word for a word).
+pub fn set_value(src: &str, path: &KeyPath, value: &DeckValue) -> Result<String, String> {
+    match value {
+        DeckValue::Number(v) => set_number(src, path, *v),
+        DeckValue::Word(w) => {
+            let mut doc = parse(src)?;
+            let slot = word_slot(&mut doc, path)?;
+            let mut new = Value::from(w.as_str());
+            *new.decor_mut() = slot.decor().clone();
+            *slot = new;
+            Ok(doc.to_string())
+        }
+    }
+}
+
+/// Why `value` cannot be set at `path` (no such key, or a value of another kind there).
+pub fn settable(src: &str, path: &KeyPath, value: &DeckValue) -> Result<(), String> {
+    match value {
+        DeckValue::Number(_) => number_at(src, path).map(|_| ()),
+        DeckValue::Word(_) => word_slot(&mut parse(src)?, path).map(|_| ()),
+    }
+}
+
 fn parse(src: &str) -> Result<DocumentMut, String> {
     src.parse::<DocumentMut>()
         .map_err(|e| format!("the deck is not valid TOML: {}", e.message().trim()))
@@ -44,11 +86,25 @@ fn number_slot<'a>(doc: &'a mut DocumentMut, path: &KeyPath) -> Result<&'a mut V
         .ok_or_else(|| format!("the deck has no number at `{path}`"))?;
     match value {
         Value::Float(_) | Value::Integer(_) => Ok(value),
-        other => Err(format!(
-            "`{path}` holds a {}, not a number",
-            other.type_name()
-        )),
+        other => Err(format!("`{path}` holds {}, not a number", kind(other))),
     }
+}
+
+/// The value at `path`, which must be a string.
+fn word_slot<'a>(doc: &'a mut DocumentMut, path: &KeyPath) -> Result<&'a mut Value, String> {
+    let value = in_item(doc.as_item_mut(), &path.0)
+        .ok_or_else(|| format!("the deck has no word at `{path}`"))?;
+    match value {
+        Value::String(_) => Ok(value),
+        other => Err(format!("`{path}` holds {}, not a word", kind(other))),
+    }
+}
+
+/// What a deck value is, with its article ("an integer").
+fn kind(value: &Value) -> String {
+    let name = value.type_name();
+    let article = if name.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
+    format!("{article} {name}")
 }
 
 fn in_item<'a>(item: &'a mut Item, rest: &[PathElem]) -> Option<&'a mut Value> {
@@ -143,5 +199,20 @@ region = { type = "disk", center = [0.5, 0.25], radius = 0.1 }
         let err = number_at(DECK, &KeyPath::parse("boundary_conditions[5].value")).unwrap_err();
         assert!(err.contains("no number"), "{err}");
         assert!(set_number(DECK, &seed, f64::NAN).is_err());
+    }
+
+    #[test]
+    fn words_are_replaced_where_the_deck_has_a_word() {
+        let kind = KeyPath::parse("material.type");
+        let lps = DeckValue::Word("lps".into());
+        let edited = set_value(DECK, &kind, &lps).unwrap();
+        assert!(edited.contains("type = \"lps\""), "{edited}");
+        assert_eq!(edited.lines().count(), DECK.lines().count());
+        let err = settable(DECK, &KeyPath::parse("material.seed"), &lps).unwrap_err();
+        assert!(err.contains("holds an integer, not a word"), "{err}");
+        let err = settable(DECK, &kind, &DeckValue::Number(1.0)).unwrap_err();
+        assert!(err.contains("holds a string, not a number"), "{err}");
+        let err = settable(DECK, &KeyPath::parse("solver.method"), &lps).unwrap_err();
+        assert!(err.contains("no word at `solver.method`"), "{err}");
     }
 }

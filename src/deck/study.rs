@@ -3,7 +3,7 @@
 //! screening or a sweep over every combination) and the outputs read from each run's CSV
 //! files. Parsed and validated like a deck: every problem is named at its file, line and key.
 
-use super::edit::number_at;
+use super::edit::{number_at, settable, DeckValue};
 use super::{locate_issues, parse_located, DeckError, DeckIssue, KeyPath, LoadedDeck};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -21,20 +21,21 @@ pub struct StudyFile {
     pub method: StudyMethod,
     /// Morris settings (`method = "morris"` only; defaults otherwise).
     pub morris: Option<MorrisSettings>,
-    /// Numbers of the deck set to one value for every run (e.g. a coarser grid for a
-    /// screening study), applied before the factors.
+    /// Values of the deck set for every run (e.g. a coarser grid for a screening study, or a
+    /// solver's preconditioner), applied before the factors.
     #[serde(default)]
     pub fixed: Vec<FixedSpec>,
     pub factors: Vec<FactorSpec>,
     pub outputs: Vec<OutputSpec>,
 }
 
-/// A number of the base deck set for every run of the study.
+/// A value of the base deck (a number, or a word such as a solver's preconditioner) set for
+/// every run of the study.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FixedSpec {
     pub key: String,
-    pub value: f64,
+    pub value: DeckValue,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -348,14 +349,13 @@ fn validate(study: &StudyFile, base_src: &str) -> Vec<DeckIssue> {
     }
     for (k, f) in study.fixed.iter().enumerate() {
         let at = |key: &str| format!("fixed[{k}].{key}");
-        if let Err(e) = number_at(base_src, &KeyPath::parse(&f.key)) {
+        if let Err(e) = settable(base_src, &KeyPath::parse(&f.key), &f.value) {
             issue(at("key"), e);
         }
-        if !f.value.is_finite() {
-            issue(
-                at("value"),
-                format!("expected a finite number, got {}", f.value),
-            );
+        if let DeckValue::Number(v) = f.value {
+            if !v.is_finite() {
+                issue(at("value"), format!("expected a finite number, got {v}"));
+            }
         }
         if study.fixed[..k].iter().any(|g| g.key == f.key) {
             issue(at("key"), format!("`{}` is fixed twice", f.key));

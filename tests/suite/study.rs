@@ -314,6 +314,23 @@ with = [{ key = "material.youngs_modulus", values = [2.0e9, 1.0e9] }]
     let report = run_study(&ls, &options(&dir)).unwrap();
     let r: Vec<f64> = report.runs.iter().map(|r| r.outputs[0].unwrap()).collect();
     assert!((r[1] / r[0] - 1.0).abs() < 1e-4, "reactions {r:?}");
+    // A word fixed in every run (the solver's method): the conjugate-gradient runs reach the
+    // same linear reactions, and each run's deck holds the word.
+    let dir = scratch("sweep-word");
+    let body = r#"method = "sweep"
+[[factors]]
+key = "boundary_conditions[1].value"
+values = [2.0e-6, 4.0e-6]
+[[fixed]]
+key = "solver.method"
+value = "ncg"
+"#;
+    let ls = LoadedStudy::from_file(&study_file(&dir, body)).unwrap();
+    let report = run_study(&ls, &options(&dir)).unwrap();
+    let r: Vec<f64> = report.runs.iter().map(|r| r.outputs[0].unwrap()).collect();
+    assert!((r[1] / r[0] - 2.0).abs() < 1e-4, "reactions {r:?}");
+    let deck = std::fs::read_to_string(dir.join("out/runs/run_0001/deck.toml")).unwrap();
+    assert!(deck.contains("method = \"ncg\""), "{deck}");
     // A number set to the factor's own value (`also`): the modulus's value also becomes the
     // density, which a quasi-static run does not read (a check of where the value goes, not
     // a material), so the reaction still doubles with the modulus.
@@ -352,6 +369,14 @@ fn bad_study_files_are_refused_at_their_key() {
         (
             "method = \"morris\"\n[[factors]]\nkey = \"material.type\"\nmin = 1.0\nmax = 2.0\n",
             "holds a string, not a number",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[fixed]]\nkey = \"solver.method\"\nvalue = 3.0\n",
+            "fixed[0].key: `solver.method` holds a string, not a number",
+        ),
+        (
+            "method = \"sweep\"\n[[factors]]\nkey = \"material.density\"\nvalues = [1.0, 2.0]\n[[fixed]]\nkey = \"material.youngs_modulus\"\nvalue = \"ncg\"\n",
+            "fixed[0].key: `material.youngs_modulus` holds a float, not a word",
         ),
         (
             "method = \"morris\"\n[[factors]]\nkey = \"material.density\"\nmin = 2.0\nmax = 1.0\n",
