@@ -36,12 +36,12 @@ pub struct CaseFile {
     /// state with how it was chosen.
     #[serde(default)]
     pub about: String,
-    /// Numbers set in every run.
+    /// Values (numbers, or words of the deck) set in every run.
     #[serde(default)]
     pub fixed: Vec<FixedSpec>,
     /// Why the reduced version cannot run in CI's budget (it still runs with `--reduced`).
     pub not_in_ci: Option<String>,
-    /// Numbers set only in the reduced (CI) version, over `fixed`.
+    /// Values set only in the reduced (CI) version, over `fixed`.
     #[serde(default)]
     pub reduced: Vec<FixedSpec>,
     pub series: Option<SeriesSpec>,
