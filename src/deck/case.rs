@@ -462,6 +462,7 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
             ),
         );
     }
+    // Each key must hold a value of its kind in the deck: a number for the series.
     let mut key_exists = |path: String, key: &str, value: &DeckValue| {
         if let Some(src) = deck {
             if let Err(e) = settable(src, &KeyPath::parse(key), value) {
@@ -475,10 +476,10 @@ fn validate(case: &CaseFile, deck: Option<&str>) -> Vec<DeckIssue> {
         }
     }
     if let Some(s) = &case.series {
-        let number = DeckValue::Number(0.0);
-        key_exists("series.key".into(), &s.key, &number);
+        let a_number = DeckValue::Number(0.0);
+        key_exists("series.key".into(), &s.key, &a_number);
         for (j, l) in s.with.iter().enumerate() {
-            key_exists(format!("series.with[{j}].key"), &l.key, &number);
+            key_exists(format!("series.with[{j}].key"), &l.key, &a_number);
         }
     }
     if let Some(s) = &case.series {

@@ -1,6 +1,7 @@
 //! Numbers (and words: a solver's method) in deck text read and replaced by key path
-//! (`material.youngs_modulus`, `boundary_conditions[1].value`), keeping every other byte: comments, layout and line numbers
-//! stay, so a problem in an edited deck is located where it is in the original.
+//! (`material.youngs_modulus`, `boundary_conditions[1].value`), keeping every other byte:
+//! comments, layout and line numbers stay, so a problem in an edited deck is located where it
+//! is in the original.
 
 use super::locate::PathElem;
 use super::KeyPath;
@@ -40,15 +41,6 @@ pub fn set_number(src: &str, path: &KeyPath, value: f64) -> Result<String, Strin
 pub enum DeckValue {
     Number(f64),
     Word(String),
-}
-
-impl std::fmt::Display for DeckValue {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            DeckValue::Number(v) => write!(f, "{v}"),
-            DeckValue::Word(w) => write!(f, "\"{w}\""),
-        }
-    }
 }
 
 /// Deck text with the value at `path` replaced by `value`, which must be of the kind the deck
@@ -103,7 +95,11 @@ fn word_slot<'a>(doc: &'a mut DocumentMut, path: &KeyPath) -> Result<&'a mut Val
 /// What a deck value is, with its article ("an integer").
 fn kind(value: &Value) -> String {
     let name = value.type_name();
-    let article = if name.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
+    let article = if name.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
     format!("{article} {name}")
 }
 
