@@ -14,10 +14,13 @@
 //! - `branching`: connected damaged regions and the fork of a branching 2D crack, with the
 //!   branch angles.
 //! - `crossings`: how many cracks cross a 2D line, and where.
+//! - `bar_wave`: the exact displacement of a fixed–free bar released from a uniform strain
+//!   (seed 003 §4.1), which a run's nodes are compared with.
 //!
 //! Only `crate::math::Vector` is imported from the crate: this layer sits below the solver and
 //! the observers, which may call it.
 
+pub mod bar_wave;
 pub mod branching;
 pub mod crack_path;
 pub mod crack_speed;
@@ -26,6 +29,7 @@ pub mod crack_tip;
 pub mod crossings;
 pub mod dissipation_rate;
 
+pub use bar_wave::FixedFreeBar;
 pub use branching::{damaged_components, find_forks, Fork, ForkBranch};
 pub use crack_path::{compare_paths, crack_path, pearson, PathComparison};
 pub use crack_speed::{

@@ -390,6 +390,7 @@ pub fn build_model_with<const D: usize>(
     }
     unknown_sets(deck, &body, &mut issues);
     map_slice_cuts_body(deck, &body, &mut issues);
+    exact_solution_covers_sets(deck, &body, &mut issues);
     if !issues.is_empty() {
         return Err(ld.locate(issues));
     }
@@ -587,6 +588,15 @@ fn unknown_sets<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut Vec<De
             refs.push((format!("stages[{s}].loads[{k}].set"), set));
         }
     }
+    if let Some(e) = deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.displacement_error.as_ref())
+    {
+        for (k, name) in e.sets.iter().enumerate() {
+            refs.push((format!("analysis.displacement_error.sets[{k}]"), name));
+        }
+    }
     for (path, name) in refs {
         if body.node_set(name).is_none() {
             issues.push(DeckIssue::new(
@@ -597,6 +607,41 @@ fn unknown_sets<const D: usize>(deck: &Deck, body: &Body<D>, issues: &mut Vec<De
                         .keys()
                         .map(|n| format!(", {n}"))
                         .collect::<String>()
+                ),
+            ));
+        }
+    }
+}
+
+/// Each node set `[analysis.displacement_error]` compares needs nodes on the solution's
+/// domain (the bar between its ends).
+fn exact_solution_covers_sets<const D: usize>(
+    deck: &Deck,
+    body: &Body<D>,
+    issues: &mut Vec<DeckIssue>,
+) {
+    let Some(e) = deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.displacement_error.as_ref())
+    else {
+        return;
+    };
+    let bar = e.solution.bar(0.0);
+    for (k, name) in e.sets.iter().enumerate() {
+        let Some(nodes) = body.node_set(name) else {
+            continue; // unknown_sets says so
+        };
+        if !nodes
+            .iter()
+            .any(|&i| bar.contains(body.positions[i as usize][0]))
+        {
+            issues.push(DeckIssue::new(
+                &format!("analysis.displacement_error.sets[{k}]"),
+                format!(
+                    "node set {name:?} has no node on the bar (x from {} to {} m); check the solution's fixed_end and length",
+                    bar.fixed_end,
+                    bar.fixed_end + bar.length
                 ),
             ));
         }

@@ -991,6 +991,68 @@ pub struct AnalysisDeck {
     /// `crack_crossing_points.csv`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crack_crossings: Option<CrackCrossingsDeck>,
+    /// The nodes' displacement against an analytic solution (`displacement_error.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub displacement_error: Option<DisplacementErrorDeck>,
+}
+
+/// `[analysis.displacement_error]`: every `interval` steps, per node set, the RMS and the
+/// largest magnitude of the nodes' displacement less an analytic solution's (seed 003 Figs.
+/// 9–10).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisplacementErrorDeck {
+    pub solution: ExactSolutionDeck,
+    /// The node sets compared (each set's nodes on the solution's domain).
+    #[serde(default = "default_error_sets")]
+    pub sets: Vec<String>,
+    /// Steps between rows (the last step always has one).
+    #[serde(default = "default_tip_interval")]
+    pub interval: u64,
+}
+
+impl ExactSolutionDeck {
+    /// The bar, its waves at `wave_speed` unless the deck gives one.
+    pub fn bar(&self, wave_speed: f64) -> crate::analysis::FixedFreeBar {
+        let ExactSolutionDeck::FixedFreeBar {
+            strain,
+            length,
+            fixed_end,
+            release,
+            wave_speed: given,
+        } = *self;
+        crate::analysis::FixedFreeBar {
+            strain,
+            length,
+            fixed_end,
+            release,
+            wave_speed: given.unwrap_or(wave_speed),
+        }
+    }
+}
+
+fn default_error_sets() -> Vec<String> {
+    vec!["all".to_string()]
+}
+
+/// An analytic displacement field.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ExactSolutionDeck {
+    /// A bar along x, fixed at `fixed_end` and free at `fixed_end + length`, released at time
+    /// `release` from the uniform strain `strain` at rest (seed 003 §4.1, Eq. 15); its waves
+    /// travel at `wave_speed` (absent: the model's P-wave speed, a strip held across its
+    /// width carrying uniaxial strain).
+    FixedFreeBar {
+        strain: f64,
+        length: f64,
+        #[serde(default)]
+        fixed_end: f64,
+        #[serde(default)]
+        release: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        wave_speed: Option<f64>,
+    },
 }
 
 /// `[analysis.crack_crossings]` (2D): every `interval` steps, the number of separate cracks

@@ -415,7 +415,71 @@ pub fn validate(deck: &Deck) -> Vec<DeckIssue> {
     {
         validate_crack_crossings(&mut out, c, d);
     }
+    if let Some(e) = deck
+        .analysis
+        .as_ref()
+        .and_then(|a| a.displacement_error.as_ref())
+    {
+        validate_displacement_error(&mut out, e, &known, &unknown_set);
+    }
     out
+}
+
+/// `[analysis.displacement_error]`: a solution with a positive length and wave speed and a
+/// finite strain and position, known node sets each once, a schedule.
+fn validate_displacement_error(
+    out: &mut Vec<DeckIssue>,
+    e: &DisplacementErrorDeck,
+    known: &dyn Fn(&str) -> bool,
+    unknown_set: &dyn Fn(&str) -> String,
+) {
+    let p = "analysis.displacement_error";
+    let ExactSolutionDeck::FixedFreeBar {
+        strain,
+        length,
+        fixed_end,
+        release,
+        wave_speed,
+    } = &e.solution;
+    let at = |key: &str| format!("{p}.solution.{key}");
+    positive(out, &at("length"), *length, "the bar's length (m)");
+    if let Some(c) = wave_speed {
+        positive(out, &at("wave_speed"), *c, "the wave speed (m/s)");
+    }
+    for (key, value) in [
+        ("strain", strain),
+        ("fixed_end", fixed_end),
+        ("release", release),
+    ] {
+        if !value.is_finite() {
+            out.push(DeckIssue::new(
+                &at(key),
+                format!("expected a finite number, found {value}"),
+            ));
+        }
+    }
+    if e.sets.is_empty() {
+        out.push(DeckIssue::new(
+            &format!("{p}.sets"),
+            "expected at least one node set (\"all\": every node on the bar)",
+        ));
+    }
+    for (k, name) in e.sets.iter().enumerate() {
+        if !known(name) {
+            out.push(DeckIssue::new(&format!("{p}.sets[{k}]"), unknown_set(name)));
+        } else if e.sets[..k].contains(name) {
+            out.push(DeckIssue::new(
+                &format!("{p}.sets[{k}]"),
+                format!("node set {name:?} is listed twice"),
+            ));
+        }
+    }
+    if e.interval == 0 {
+        out.push(DeckIssue::new(
+            &format!("{p}.interval"),
+            "expected at least 1 step between rows, found 0",
+        ));
+    }
 }
 
 /// A name that becomes part of a history column (an opening's, a probe's): letters, digits

@@ -5,6 +5,7 @@ pub mod crack_path;
 pub mod crack_surface;
 pub mod crack_tip;
 pub mod csv;
+pub mod displacement_error;
 pub mod field_maps;
 pub mod history;
 pub mod observer;

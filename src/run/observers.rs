@@ -11,6 +11,7 @@ use crate::observe::crack_crossings::{CrackCrossings, CrossingSettings};
 use crate::observe::crack_path::{CrackPath, PathReport, PathSettings};
 use crate::observe::crack_surface::{CrackSurface, CrackSurfaceReport, SurfaceSettings};
 use crate::observe::crack_tip::{CrackReport, CrackTips};
+use crate::observe::displacement_error::DisplacementError;
 use crate::observe::history::History;
 use crate::observe::progress::Progress;
 use crate::observe::resume::ResumedCsv;
@@ -143,14 +144,16 @@ pub(crate) fn attach_to<const D: usize>(
     if let Some(c) = analysis.and_then(|a| a.crack_crossings.as_ref()) {
         if D == 2 {
             let counts = out.join("crack_crossings.csv");
-            let make = |path: &Path| -> Box<dyn Observer<D>> {
+            observers.push(csv_observer(&counts, restarting.then_some(step), |path| {
                 Box::new(crack_crossings(c, body, path, out))
-            };
-            observers.push(match restarting {
-                true => Box::new(ResumedCsv::new(&counts, step, make)?),
-                false => make(&counts),
-            });
+            })?);
         }
+    }
+    if let Some(e) = analysis.and_then(|a| a.displacement_error.as_ref()) {
+        let errors = out.join("displacement_error.csv");
+        observers.push(csv_observer(&errors, restarting.then_some(step), |path| {
+            Box::new(displacement_error(e, body, report, path))
+        })?);
     }
     Ok(Attached {
         observers,
@@ -158,6 +161,19 @@ pub(crate) fn attach_to<const D: usize>(
         crack,
         path,
         surface,
+    })
+}
+
+/// An observer writing one CSV file at `path`, made by `make`; `resume_at`: continuing the
+/// rows the file holds up to that step (a restart).
+fn csv_observer<const D: usize>(
+    path: &Path,
+    resume_at: Option<u64>,
+    make: impl FnOnce(&Path) -> Box<dyn Observer<D>>,
+) -> std::io::Result<Box<dyn Observer<D>>> {
+    Ok(match resume_at {
+        Some(step) => Box::new(ResumedCsv::new(path, step, make)?),
+        None => make(path),
     })
 }
 
@@ -379,4 +395,28 @@ fn crack_surface<const D: usize>(
         g0: deck.material.fracture_energy(),
     };
     CrackSurface::new(out, body, settings)
+}
+
+/// The error observer of `[analysis.displacement_error]`, writing into `path`: each set's
+/// nodes on the bar, whose waves travel at the model's P-wave speed unless the deck says.
+fn displacement_error<const D: usize>(
+    e: &crate::deck::schema::DisplacementErrorDeck,
+    body: &Body<D>,
+    report: &ModelReport,
+    path: &Path,
+) -> DisplacementError {
+    let bar = e.solution.bar(report.p_wave_speed);
+    let sets = e
+        .sets
+        .iter()
+        .map(|name| {
+            let nodes = body.node_set(name).unwrap_or_default();
+            let on_bar = nodes
+                .into_iter()
+                .filter(|&i| bar.contains(body.positions[i as usize][0]))
+                .collect();
+            (name.clone(), on_bar)
+        })
+        .collect();
+    DisplacementError::new(path, bar, e.interval, sets)
 }

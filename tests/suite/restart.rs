@@ -166,8 +166,9 @@ fn explicit_run_with_crack_tip_continued_after_a_stop_is_byte_identical() {
     // Checkpoints at the snapshots (0, 150, 300, …) and every 100 steps; stopped at 230, the
     // run continues from step 200, after the crack started. The crack tip's samples (and so
     // its speeds) span the restart, and so do the crack path's forks and the crossing counts
-    // of a line across the notch plane ahead of the notch.
-    let tip = "checkpoint_interval = 100\n[analysis.crack_tip]\ndirection = [1.0, 0.0]\ninterval = 10\nwindow = 3\n[analysis.crack_path]\ninterval = 10\n[analysis.crack_crossings]\ninterval = 10\n[[analysis.crack_crossings.lines]]\nname = \"x3mm\"\nfrom = [0.003, 0.0]\nto = [0.003, 0.004]";
+    // of a line across the notch plane ahead of the notch, and the displacement's distance
+    // from a bar at rest (strain 0: the RMS and largest |u|).
+    let tip = "checkpoint_interval = 100\n[analysis.crack_tip]\ndirection = [1.0, 0.0]\ninterval = 10\nwindow = 3\n[analysis.crack_path]\ninterval = 10\n[analysis.crack_crossings]\ninterval = 10\n[[analysis.crack_crossings.lines]]\nname = \"x3mm\"\nfrom = [0.003, 0.0]\nto = [0.003, 0.004]\n[analysis.displacement_error]\nsolution = { type = \"fixed_free_bar\", strain = 0.0, length = 0.008 }\ninterval = 10";
     let ld = load(&dir, "plate.toml", &deck_text(3.09e9, "steps = 600", tip));
     assert_restart_matches(&ld, &dir, 230);
     let _ = std::fs::remove_dir_all(&dir);
