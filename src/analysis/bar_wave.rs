@@ -7,6 +7,8 @@
 //! (du/ds = 0 there), hence periodic in 4L. At s = L/2 this is the trapezoid between ±εL/2 of
 //! period 4L/c that the paper plots.
 
+use crate::math::Vector;
+
 /// A fixed–free bar along x: fixed end at `fixed_end`, free end at `fixed_end + length`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FixedFreeBar {
@@ -34,6 +36,30 @@ impl FixedFreeBar {
         let s = x - self.fixed_end;
         let travel = self.wave_speed * (t - self.release).max(0.0);
         0.5 * (self.extension(s - travel) + self.extension(s + travel))
+    }
+
+    /// The volume-weighted RMS and the largest magnitude of u − u_exact over `nodes` at time
+    /// `t` (the exact field is along x only), summed in node order: the error norms of seed
+    /// 003 Figs. 9–10 (at one particle, and over the bar).
+    pub fn error<const D: usize>(
+        &self,
+        positions: &[Vector<D>],
+        volumes: &[f64],
+        u: &[Vector<D>],
+        nodes: &[u32],
+        t: f64,
+    ) -> (f64, f64) {
+        let (mut squares, mut volume, mut largest) = (0.0, 0.0, 0.0_f64);
+        for &i in nodes {
+            let i = i as usize;
+            let mut e = u[i];
+            e[0] -= self.displacement(positions[i][0], t);
+            let e2 = e.norm_squared();
+            squares += e2 * volumes[i];
+            volume += volumes[i];
+            largest = largest.max(e2.sqrt());
+        }
+        ((squares / volume).sqrt(), largest)
     }
 
     /// f: εs on [0, L], odd about 0, even about L, period 4L.
@@ -113,6 +139,25 @@ mod tests {
             let d = BAR.displacement(x, t) - series(x, t);
             assert!(d.abs() < 1e-7, "x = {x}, t = {t}: {d}");
         }
+    }
+
+    #[test]
+    fn the_error_is_the_volume_weighted_rms_and_the_largest_magnitude() {
+        let positions = [0.25, 0.5, 0.75].map(|x| Vector::<2>::new(x, 0.0));
+        // Before the release the exact field is εx; the nodes are off by (1, 0), (0, 2) and
+        // (−2, 0) µm, the last with twice the volume.
+        let u = [
+            Vector::<2>::new(0.25e-3 + 1e-6, 0.0),
+            Vector::<2>::new(0.5e-3, 2e-6),
+            Vector::<2>::new(0.75e-3 - 2e-6, 0.0),
+        ];
+        let volumes = [1.0, 1.0, 2.0];
+        let (rms, max) = BAR.error(&positions, &volumes, &u, &[0, 1, 2], -1.0);
+        let expected = ((1.0 + 4.0 + 2.0 * 4.0) / 4.0_f64).sqrt() * 1e-6;
+        assert!((rms - expected).abs() < 1e-18, "{rms} against {expected}");
+        assert!((max - 2e-6).abs() < 1e-18);
+        let (one, _) = BAR.error(&positions, &volumes, &u, &[0], -1.0);
+        assert!((one - 1e-6).abs() < 1e-18);
     }
 
     #[test]

@@ -41,30 +41,6 @@ impl DisplacementError {
     }
 }
 
-/// The volume-weighted RMS and the largest |error| of the nodes' displacement `u` against the
-/// bar's (along x; the exact field has no other component), over `nodes` at time `t`.
-pub fn bar_error<const D: usize>(
-    bar: &FixedFreeBar,
-    positions: &[crate::math::Vector<D>],
-    volumes: &[f64],
-    u: &[crate::math::Vector<D>],
-    nodes: &[u32],
-    t: f64,
-) -> (f64, f64) {
-    let (mut squares, mut volume, mut largest) = (0.0, 0.0, 0.0_f64);
-    for &i in nodes {
-        let i = i as usize;
-        let x = positions[i][0];
-        let mut e = u[i];
-        e[0] -= bar.displacement(x, t);
-        let e2 = e.norm_squared();
-        squares += e2 * volumes[i];
-        volume += volumes[i];
-        largest = largest.max(e2.sqrt());
-    }
-    ((squares / volume).sqrt(), largest)
-}
-
 impl<const D: usize> Observer<D> for DisplacementError {
     fn wants(&self, step: u64, last: bool) -> bool {
         self.every.hits(step, last)
@@ -77,14 +53,9 @@ impl<const D: usize> Observer<D> for DisplacementError {
         }
         let mut row = vec![state.time, state.step as f64];
         for nodes in &self.sets {
-            let (rms, max) = bar_error(
-                &self.solution,
-                &body.positions,
-                &body.volumes,
-                &state.u,
-                nodes,
-                state.time,
-            );
+            let (rms, max) =
+                self.solution
+                    .error(&body.positions, &body.volumes, &state.u, nodes, state.time);
             row.extend([rms, max]);
         }
         self.rows.push(row)
@@ -92,37 +63,5 @@ impl<const D: usize> Observer<D> for DisplacementError {
 
     fn flush(&mut self) -> io::Result<()> {
         self.rows.flush()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::math::Vector;
-
-    #[test]
-    fn the_error_is_the_volume_weighted_rms_and_the_largest_magnitude() {
-        let bar = FixedFreeBar {
-            strain: 1e-3,
-            length: 1.0,
-            fixed_end: 0.0,
-            release: 0.0,
-            wave_speed: 5000.0,
-        };
-        let positions = [0.25, 0.5, 0.75].map(|x| Vector::<2>::new(x, 0.0));
-        // Before the release the exact field is εx; the nodes are off by (1, 0), (0, 2) and
-        // (−2, 0) µm, the last with twice the volume.
-        let u = [
-            Vector::<2>::new(0.25e-3 + 1e-6, 0.0),
-            Vector::<2>::new(0.5e-3, 2e-6),
-            Vector::<2>::new(0.75e-3 - 2e-6, 0.0),
-        ];
-        let volumes = [1.0, 1.0, 2.0];
-        let (rms, max) = bar_error(&bar, &positions, &volumes, &u, &[0, 1, 2], -1.0);
-        let expected = ((1.0 + 4.0 + 2.0 * 4.0) / 4.0_f64).sqrt() * 1e-6;
-        assert!((rms - expected).abs() < 1e-18, "{rms} against {expected}");
-        assert!((max - 2e-6).abs() < 1e-18);
-        let (one, _) = bar_error(&bar, &positions, &volumes, &u, &[0], -1.0);
-        assert!((one - 1e-6).abs() < 1e-18);
     }
 }
