@@ -28,6 +28,9 @@ fn scratch(tag: &str) -> PathBuf {
     dir
 }
 
+/// The five seed papers, each with its reduced-case test.
+const PAPERS: [&str; 5] = ["000", "001", "002", "003", "004"];
+
 #[test]
 fn every_case_file_is_valid_and_its_ids_unique() {
     let entries = load_all(&layout()).unwrap_or_else(|e| panic!("{e}"));
@@ -36,6 +39,15 @@ fn every_case_file_is_valid_and_its_ids_unique() {
         .map(|e| e.case.case.results.len() + e.case.case.not_run.len())
         .sum();
     println!("{} cases, {rows} rows", entries.len());
+    // The reduced-case tests below run the cases paper by paper.
+    for entry in &entries {
+        let paper = entry.case.case.paper.as_str();
+        assert!(
+            PAPERS.contains(&paper),
+            "{}: paper {paper} has no reduced-case test",
+            entry.path
+        );
+    }
 }
 
 #[test]
@@ -53,9 +65,11 @@ fn the_committed_report_is_the_one_its_measurements_give() {
     );
 }
 
-#[test]
-fn reduced_cases_reproduce_the_papers_numbers() {
-    let out = scratch("reduced");
+/// Runs the reduced version of every case of one paper and asserts its rows. One test per
+/// paper: the test harness runs them beside the other tests (one test for all cases, about 5
+/// minutes on 2 cores, started last in name order and ran alone at the end of the suite).
+fn reduced_cases_of_paper(paper: &str) {
+    let out = scratch(&format!("reduced-{paper}"));
     let opts = ValidateOptions {
         out_dir: out.clone(),
         reduced: true,
@@ -68,14 +82,19 @@ fn reduced_cases_reproduce_the_papers_numbers() {
     // case with no measured row (only NOT RUN rows) has nothing to assert.
     let mut cases = Vec::new();
     for entry in load_all(&layout()).unwrap() {
-        match &entry.case.case.not_in_ci {
+        let case = &entry.case.case;
+        if case.paper != paper {
+            continue;
+        }
+        match &case.not_in_ci {
             Some(why) => println!("not in CI: {}: {why}", entry.path),
-            None if entry.case.case.results.is_empty() => {
+            None if case.results.is_empty() => {
                 println!("not in CI: {}: no measured row", entry.path)
             }
             None => cases.push(entry.case.file.clone()),
         }
     }
+    assert!(!cases.is_empty(), "no case of paper {paper} runs in CI");
     let done = validate(&cases, &layout(), &opts, true, None).unwrap_or_else(|e| panic!("{e}"));
     println!("{done}");
     assert_eq!(
@@ -88,6 +107,31 @@ fn reduced_cases_reproduce_the_papers_numbers() {
         "a reduced validation leaves the report alone"
     );
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn reduced_cases_of_seed_000_reproduce_the_papers_numbers() {
+    reduced_cases_of_paper("000");
+}
+
+#[test]
+fn reduced_cases_of_seed_001_reproduce_the_papers_numbers() {
+    reduced_cases_of_paper("001");
+}
+
+#[test]
+fn reduced_cases_of_seed_002_reproduce_the_papers_numbers() {
+    reduced_cases_of_paper("002");
+}
+
+#[test]
+fn reduced_cases_of_seed_003_reproduce_the_papers_numbers() {
+    reduced_cases_of_paper("003");
+}
+
+#[test]
+fn reduced_cases_of_seed_004_reproduce_the_papers_numbers() {
+    reduced_cases_of_paper("004");
 }
 
 /// A case on the quickstart deck with a series of two values and rows of every kind.
