@@ -244,7 +244,7 @@ enum Loop<const D: usize> {
     /// Adaptive steps until `end_time`, the last one shortened to land on it; times closer
     /// than `slack` to the end are the end.
     Adaptive {
-        controller: AdaptiveDt<D>,
+        controller: Box<AdaptiveDt<D>>,
         end_time: f64,
         slack: f64,
         given: (f64, f64),
@@ -286,7 +286,7 @@ impl<const D: usize> Loop<D> {
         };
         let given = (0.0, 0.0);
         let l = Loop::Adaptive {
-            controller,
+            controller: Box::new(controller),
             end_time,
             slack,
             given,
@@ -405,11 +405,11 @@ impl<const D: usize> Loop<D> {
                     return Ok(false);
                 }
                 sim.step()?;
-                if k % 100 == 0 || k == end {
+                if k.is_multiple_of(100) || k == end {
                     sim.check_finite()?;
                 }
                 // Every 10 steps: an O(nodes) sum that sees an instability before it overflows.
-                if k % 10 == 0 || k == end {
+                if k.is_multiple_of(10) || k == end {
                     sim.check_energy(given)?;
                 }
                 watch.commit(sim, k == end, |sim| self.driver(sim))?;

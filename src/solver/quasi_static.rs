@@ -914,7 +914,7 @@ impl<const D: usize> QuasiStatic<D> {
             }
         }
         let eps = 1e-9 * (hi - lo).norm();
-        if !(eps > 0.0) {
+        if eps.is_nan() || eps <= 0.0 {
             return Ok((0.0, 0));
         }
         sim.refresh_forces()?;
