@@ -318,14 +318,37 @@ pub fn load_all(layout: &Layout) -> Result<Vec<CaseEntry>, String> {
         }
         let measured = Measured::read(&layout.measured_file(&case))?;
         let others = Others::load(&case, layout)?;
+        let progress = match measured {
+            None => screening_progress(&case, layout),
+            Some(_) => None,
+        };
         entries.push(CaseEntry {
             case,
             measured,
             others,
             path,
+            progress,
         });
     }
     Ok(entries)
+}
+
+/// How far a screening without a measurement has come: its runs kept so far (the
+/// statistics need them all), and the command that continues it.
+fn screening_progress(case: &LoadedCase, layout: &Layout) -> Option<String> {
+    let total = case.screening.as_ref()?.runs();
+    let file = layout.kept_runs_file(case);
+    let text = std::fs::read_to_string(&file).ok()?;
+    let kept = text
+        .lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .count();
+    Some(format!(
+        "The screening is under way: {kept} of its {total} runs are kept in `{}`; `peridyn validate {}` continues it.",
+        layout.relative(&file),
+        layout.relative(&case.file)
+    ))
 }
 
 /// The texts of `docs/validation.md` and of `README.md` (its summary table rewritten), from
@@ -351,8 +374,8 @@ fn unexplained_differences(entries: &[CaseEntry]) -> Vec<String> {
     entries
         .iter()
         .flat_map(|e| {
-            let rows = verdict::judge_case(&e.case, e.measured.as_ref(), false, &e.others);
-            rows.into_iter()
+            e.rows()
+                .into_iter()
                 .filter(|row| row.status == verdict::Status::Differs)
                 .filter(|row| {
                     e.case

@@ -6,7 +6,7 @@
 use super::figures;
 use super::measured::Measured;
 use super::others::Others;
-use super::verdict::{judge_case, number, percent, Row, Status};
+use super::verdict::{judge_case, number, percent, Row, Status, NOT_YET_RUN};
 use crate::deck::case::LoadedCase;
 use std::fmt::Write;
 use std::path::Path;
@@ -43,19 +43,26 @@ pub struct CaseEntry {
     pub others: Others,
     /// The case file as the report names it (relative to the repository).
     pub path: String,
+    /// A screening not finished yet: how far it is (said in its rows instead of "not run").
+    pub progress: Option<String>,
+}
+
+impl CaseEntry {
+    /// The case's rows as the full report shows them.
+    pub fn rows(&self) -> Vec<Row> {
+        let mut rows = judge_case(&self.case, self.measured.as_ref(), false, &self.others);
+        if let Some(progress) = &self.progress {
+            for row in rows.iter_mut().filter(|r| r.note == NOT_YET_RUN) {
+                row.note = progress.clone();
+            }
+        }
+        rows
+    }
 }
 
 /// The report's markdown. `figure_dir` is where the figures are, relative to the report.
 pub fn markdown(entries: &[CaseEntry], figure_dir: &str, figures_present: &Path) -> String {
-    let judged: Vec<(&CaseEntry, Vec<Row>)> = entries
-        .iter()
-        .map(|e| {
-            (
-                e,
-                judge_case(&e.case, e.measured.as_ref(), false, &e.others),
-            )
-        })
-        .collect();
+    let judged: Vec<(&CaseEntry, Vec<Row>)> = entries.iter().map(|e| (e, e.rows())).collect();
     let mut md = String::new();
     md += "# Validation: the papers' results reproduced\n\n";
     md += "Written by `peridyn validate` from the case files in [`validation/`](../validation/) \
@@ -141,15 +148,7 @@ fn summary(judged: &[(&CaseEntry, Vec<Row>)], link: &str) -> String {
 
 /// The README's summary: the same table, linking into the report.
 pub fn readme_summary(entries: &[CaseEntry]) -> String {
-    let judged: Vec<(&CaseEntry, Vec<Row>)> = entries
-        .iter()
-        .map(|e| {
-            (
-                e,
-                judge_case(&e.case, e.measured.as_ref(), false, &e.others),
-            )
-        })
-        .collect();
+    let judged: Vec<(&CaseEntry, Vec<Row>)> = entries.iter().map(|e| (e, e.rows())).collect();
     summary(&judged, "docs/validation.md#seed-")
 }
 

@@ -72,6 +72,9 @@ impl Row {
     }
 }
 
+/// The note of a result whose case has no measurement at this size.
+pub const NOT_YET_RUN: &str = "Not yet run at this size.";
+
 /// Every row of a case: its results judged against `measured` (none: never run at this size),
 /// then its `not_run` rows. `others`: the cases its comparisons read (`Others::none()` at the
 /// reduced size, where there is no committed measurement to compare with).
@@ -108,7 +111,7 @@ fn judge(
     };
     let mut row = Row::not_run(&r.id, &r.quantity, &r.source, r.paper, &r.unit);
     let Some(m) = measured else {
-        row.note = "Not yet run at this size.".into();
+        row.note = NOT_YET_RUN.into();
         return row;
     };
     let output = |run: &super::measured::MeasuredRun| {
