@@ -10,6 +10,18 @@
 //! additive Schwarz), corrects the smooth part of the error over the whole body at once, so the
 //! iterations grow with the cell's width in nodes instead of the body's.
 //!
+//! A crack that crosses a cell leaves its two sides free to move apart, a motion a cell's one
+//! translation cannot represent: the coarse correction then ties the crack's faces together
+//! and conjugate gradients spend thousands of iterations undoing it (docs/performance.md,
+//! "Profiles of the long validation runs"). So each cell's coarse unknowns are those of its
+//! *pieces*: the groups of its nodes joined through the cell's own unbroken bonds, found again
+//! at every update from the bonds' status (connectivity-aware aggregation, as in algebraic
+//! multigrid for fracture). An intact cell is one piece, as before. A piece holding less than
+//! a quarter of its cell's nodes (a fragment, a sliver along a crack face) gets no unknown of
+//! its own: hanging by a few bonds, it would give A_c a nearly singular block, and the
+//! correction a huge step along it that the line search then scales the whole step down for
+//! (measured: docs/performance.md, "Coarse cells split along cracks").
+//!
 //! K is the bond-based linearisation of the forces about the reference configuration: bond
 //! i→j of stiffness k = V_i V_j C̄ (C̄ the bond stiffness `ForceEngine::pair_stiffness`,
 //! broken halves taking none) adds k/2 (e_i − e_j)(e_i − e_j)ᵀ ⊗ n nᵀ (n = ξ/|ξ|) over the
@@ -19,9 +31,11 @@
 //! bond-based equivalent that the stable time step uses: only the speed depends on it.
 //!
 //! Every number is the same for any thread or rank count: the cells come from the reference
-//! positions and the global bounding box, and the coarse matrix and each restriction Pᵀr are
-//! left folds over the nodes in the global order, continued from rank to rank (`Ranks::
-//! chain_words`); each rank then solves the same coarse system.
+//! positions and the global bounding box, a piece is named by the smallest global index among
+//! the nodes its members reach (a fixpoint that no order of visits changes), its node counts
+//! are sums of integers, and the coarse matrix and each restriction Pᵀr are left folds over
+//! the nodes in the global order, continued from rank to rank (`Ranks::chain_words`); each
+//! rank then solves the same coarse system.
 
 use super::ranks::Share;
 use super::Simulation;
@@ -38,12 +52,23 @@ const CELLS_3D: f64 = 1000.0;
 /// No coarse unknown for this component of this node.
 const NONE: u32 = u32::MAX;
 
+/// Pieces a cell keeps apart; nodes of further pieces (a cell cut into many fragments) share
+/// the last one.
+const PIECES: usize = 8;
+
+/// The least share of its cell's nodes a piece needs to move as one of its own.
+const MIN_SHARE: f64 = 0.25;
+
 /// A floating piece (a fragment cut loose) makes A_c singular; its diagonal is raised by this
 /// fraction, which bounds the correction along its rigid motions.
 const REGULARISATION: f64 = 1e-8;
 
 /// The coarse space of one damage state.
 pub struct CoarseSpace<const D: usize> {
+    /// Per local node (owned, then ghosts): its cell.
+    cell: Vec<u32>,
+    /// Number of cells.
+    cells: usize,
     /// Per local node (owned, then ghosts): its coarse unknown per component (`NONE`: fixed).
     unknowns: Vec<[u32; D]>,
     /// Number of coarse unknowns.
@@ -56,7 +81,7 @@ pub struct CoarseSpace<const D: usize> {
 }
 
 impl<const D: usize> CoarseSpace<D> {
-    /// The cells and unknowns of `sim`'s body (the factor comes with `update`).
+    /// The cells of `sim`'s body (the pieces, unknowns and factor come with `update`).
     pub fn new<M: Material<D>>(sim: &Simulation<D, M>) -> Self {
         let share = sim.share.as_deref();
         let owned = sim.owned();
@@ -97,45 +122,153 @@ impl<const D: usize> CoarseSpace<D> {
                 index += c * stride;
                 stride *= cells[a];
             }
-            index
+            index as u32
         };
-        let total: usize = cells.iter().product();
-        // A cell's component is an unknown when a node of it is free in that component.
+        CoarseSpace {
+            cell: positions.iter().map(cell_of).collect(),
+            cells: cells.iter().product(),
+            unknowns: Vec::new(),
+            size: 0,
+            band: 0,
+            factor: Vec::new(),
+        }
+    }
+
+    /// Finds the cells' pieces for the bonds' current status, numbers their unknowns, and
+    /// assembles and factorises A_c. Called at the start of every minimisation (a few passes
+    /// over the bonds, about the cost of a few force evaluations): the factor is then a
+    /// function of the state alone, so a run continued from a checkpoint builds the one the
+    /// paused minimisation used.
+    pub fn update<M: Material<D>>(&mut self, sim: &Simulation<D, M>) {
+        let piece = self.pieces(sim);
+        self.number(sim, &piece);
+        let matrix = self.assemble(sim);
+        self.factor = factorise(matrix, self.size, self.band);
+    }
+
+    /// Per owned node, the piece of its cell it belongs to (0..PIECES).
+    fn pieces<M: Material<D>>(&self, sim: &Simulation<D, M>) -> Vec<u8> {
+        let share = sim.share.as_deref();
+        let owned = sim.owned();
+        let (bonds, status, cell) = (&sim.bonds, &sim.state.status, &self.cell);
+        // Each node's name: the smallest global index it reaches through its cell's unbroken
+        // bonds. Visits lower names until none changes; any order ends at the same names.
+        let first = share.map_or(0, |s| s.first);
+        let mut name: Vec<f64> = (0..cell.len()).map(|i| (first + i) as f64).collect();
+        loop {
+            if let Some(s) = share {
+                s.halo.exchange_values(s.ranks.as_ref(), &mut name);
+            }
+            let mut lowered = 0u64;
+            for i in 0..owned {
+                let mut m = name[i];
+                for b in bonds.family(i) {
+                    let j = bonds.neighbors[b] as usize;
+                    if status[b] != BROKEN && cell[j] == cell[i] {
+                        m = m.min(name[j]);
+                    }
+                }
+                if m < name[i] {
+                    name[i] = m;
+                    lowered += 1;
+                }
+            }
+            let lowered = share.map_or(lowered, |s| s.ranks.sum_u64(lowered));
+            if lowered == 0 {
+                break;
+            }
+        }
+        // Per cell, the PIECES smallest names of its pieces (ascending, ∞ for none): the same
+        // set whatever the order the nodes are folded in.
+        let words = self.cells * PIECES;
+        let fold = |mut table: Vec<f64>| {
+            for i in 0..owned {
+                let slots = &mut table[cell[i] as usize * PIECES..][..PIECES];
+                let n = name[i];
+                if n < slots[PIECES - 1] && !slots.contains(&n) {
+                    let at = slots.partition_point(|&s| s < n);
+                    slots[at..].rotate_right(1);
+                    slots[at] = n;
+                }
+            }
+            table
+        };
+        let table = match share {
+            None => fold(vec![f64::INFINITY; words]),
+            Some(s) => s.ranks.chain_words(words, &mut |before| match before {
+                None => fold(vec![f64::INFINITY; words]),
+                Some(b) => fold(b.to_vec()),
+            }),
+        };
+        (0..owned)
+            .map(|i| {
+                let slots = &table[cell[i] as usize * PIECES..][..PIECES];
+                slots[..PIECES - 1]
+                    .iter()
+                    .position(|&s| s == name[i])
+                    .unwrap_or(PIECES - 1) as u8
+            })
+            .collect()
+    }
+
+    /// The coarse unknowns of the owned nodes' pieces (one per component with a free node, for
+    /// pieces not too small), their ghosts' from their owners, and A_c's half-bandwidth.
+    fn number<M: Material<D>>(&mut self, sim: &Simulation<D, M>, piece: &[u8]) {
+        let share = sim.share.as_deref();
+        let owned = sim.owned();
         let mask = &sim.constrained_mask;
-        let mut used = vec![0.0; total * D];
-        for (x, m) in positions[..owned].iter().zip(mask) {
-            let c = cell_of(x);
+        let slot = |i: usize| self.cell[i] as usize * PIECES + piece[i] as usize;
+        // Per piece: its nodes, then its nodes free in each component; sums of integers, the
+        // same in any order.
+        let per = D + 1;
+        let words = self.cells * PIECES * per;
+        let mut count = vec![0.0; words];
+        for (i, m) in mask[..owned].iter().enumerate() {
+            let c = &mut count[slot(i) * per..][..per];
+            c[0] += 1.0;
             for k in 0..D {
                 if !m[k] {
-                    used[c * D + k] = 1.0;
+                    c[1 + k] += 1.0;
                 }
             }
         }
         if let Some(s) = share {
-            // Any order of maxima gives the same answer.
-            used = s.ranks.chain_words(total * D, &mut |before| match before {
-                None => used.clone(),
-                Some(b) => used.iter().zip(b).map(|(u, b)| u.max(*b)).collect(),
+            count = s.ranks.chain_words(words, &mut |before| match before {
+                None => count.clone(),
+                Some(b) => count.iter().zip(b).map(|(u, b)| u + b).collect(),
             });
         }
-        let mut number = vec![NONE; total * D];
+        // A piece's component is an unknown when a node of it is free in that component and
+        // the piece holds at least MIN_SHARE of its cell's nodes (smaller ones, fragments,
+        // are left to Jacobi: see the module's comment).
+        let mut number = vec![NONE; self.cells * PIECES * D];
         let mut size = 0u32;
-        for (n, u) in number.iter_mut().zip(&used) {
-            if *u > 0.0 {
-                *n = size;
-                size += 1;
+        for (cell, counts) in count.chunks(PIECES * per).enumerate() {
+            let nodes: f64 = counts.chunks(per).map(|c| c[0]).sum();
+            for (p, c) in counts.chunks(per).enumerate() {
+                if c[0] < MIN_SHARE * nodes {
+                    continue;
+                }
+                for k in 0..D {
+                    if c[1 + k] > 0.0 {
+                        number[(cell * PIECES + p) * D + k] = size;
+                        size += 1;
+                    }
+                }
             }
         }
-        let mut unknowns: Vec<[u32; D]> = positions
-            .iter()
-            .zip(mask)
-            .map(|(x, m)| {
-                let c = cell_of(x);
-                std::array::from_fn(|k| if m[k] { NONE } else { number[c * D + k] })
-            })
-            .collect();
+        let mut unknowns = vec![[NONE; D]; self.cell.len()];
+        for (i, u) in unknowns[..owned].iter_mut().enumerate() {
+            *u = std::array::from_fn(|k| {
+                if mask[i][k] {
+                    NONE
+                } else {
+                    number[slot(i) * D + k]
+                }
+            });
+        }
         if let Some(s) = share {
-            // A ghost's constraints are its owner's to know.
+            // A ghost's piece and constraints are its owner's to know.
             s.halo.exchange_items(
                 s.ranks.as_ref(),
                 D,
@@ -144,10 +277,13 @@ impl<const D: usize> CoarseSpace<D> {
                 |u, w| *u = std::array::from_fn(|k| w[k] as u32),
             );
         }
-        // The half-bandwidth over the bonds' pairs of unknowns.
+        // The half-bandwidth over the unbroken bonds' pairs of unknowns.
         let mut band = D - 1;
         for i in 0..owned {
             for b in sim.bonds.family(i) {
+                if sim.state.status[b] == BROKEN {
+                    continue;
+                }
                 let j = sim.bonds.neighbors[b] as usize;
                 for p in unknowns[i].iter().filter(|p| **p != NONE) {
                     for q in unknowns[j].iter().filter(|q| **q != NONE) {
@@ -160,21 +296,9 @@ impl<const D: usize> CoarseSpace<D> {
             None => band,
             Some(s) => s.ranks.max_f64(band as f64) as usize,
         };
-        CoarseSpace {
-            unknowns,
-            size: size as usize,
-            band: band.min((size as usize).saturating_sub(1)),
-            factor: Vec::new(),
-        }
-    }
-
-    /// Assembles and factorises A_c for the bonds' current status. Called at the start of
-    /// every minimisation (about the cost of one force evaluation): the factor is then a
-    /// function of the state alone, so a run continued from a checkpoint builds the one the
-    /// paused minimisation used.
-    pub fn update<M: Material<D>>(&mut self, sim: &Simulation<D, M>) {
-        let matrix = self.assemble(sim);
-        self.factor = factorise(matrix, self.size, self.band);
+        self.unknowns = unknowns;
+        self.size = size as usize;
+        self.band = band.min((size as usize).saturating_sub(1));
     }
 
     /// A_c's lower band: the left fold of every owned node's bonds, in the global node order.

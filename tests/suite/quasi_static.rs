@@ -14,6 +14,7 @@ use peridyn::material::correspondence::ZeroEnergyControl;
 use peridyn::material::{Dimensionality, Material, MicromodulusProfile, Pmb};
 use peridyn::math::Vector;
 use peridyn::run::{drive, drive_quasi_static, RunError};
+use peridyn::solver::coarse_space::CoarseSpace;
 use peridyn::solver::{AdrMass, EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
 use std::path::Path;
 
@@ -446,6 +447,59 @@ fn a_coarse_grid_correction_traces_the_same_fracture_in_fewer_evaluations() {
     };
     let (old_work, new_work) = assert_same_fracture("two-level NCG", ncg(false), ncg(true));
     assert!(2 * new_work < old_work, "{old_work} → {new_work}");
+}
+
+/// A crack that cuts the body in two leaves each side's coarse cells to move apart: the
+/// two-level preconditioner's correction of a residual on one side is exactly zero on the
+/// other (no unbroken bond joins them, so no stiffness does). A cell that straddled the cut
+/// and moved as one would carry the residual across it.
+#[test]
+fn a_coarse_correction_does_not_cross_a_cut() {
+    let ld = plate_deck(
+        1e-6,
+        1.0,
+        "[solver]\ntype = \"quasi_static\"\nload_steps = 1",
+        "",
+    );
+    let (mut sim, _) = common::pmb_deck_simulation(&ld).unwrap();
+    // Cut between the node rows at y = 19.75 and 20.25 mm, inside a row of cells (about
+    // 1.5 mm high from y = 0.25 mm) and away from the grips.
+    let cut = 0.02;
+    let above = |i: usize| sim.body.positions[i][1] > cut;
+    let mut crossing = 0;
+    for i in 0..sim.body.len() {
+        for b in sim.bonds.family(i) {
+            if above(i) != above(sim.bonds.neighbors[b] as usize) {
+                sim.state.status[b] = peridyn::state::BROKEN;
+                crossing += 1;
+            }
+        }
+    }
+    assert!(crossing > 0);
+    let mut coarse = CoarseSpace::new(&sim);
+    coarse.update(&sim);
+    let r: Vec<Vector<2>> = (0..sim.body.len())
+        .map(|i| {
+            if above(i) {
+                Vector::<2>::new(1.0, 0.5)
+            } else {
+                Vector::<2>::zeros()
+            }
+        })
+        .collect();
+    let mut s = vec![Vector::<2>::zeros(); r.len()];
+    coarse.correct(None, &r, &mut s);
+    let top_moved = (0..r.len())
+        .filter(|&i| above(i) && s[i] != Vector::<2>::zeros())
+        .count();
+    let across = (0..r.len())
+        .filter(|&i| !above(i) && s[i] != Vector::<2>::zeros())
+        .count();
+    assert!(top_moved > 0, "the side loaded is corrected");
+    assert_eq!(
+        across, 0,
+        "{across} nodes below the cut moved by a residual above it"
+    );
 }
 
 /// The notched deck's solver settings.
