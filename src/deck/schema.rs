@@ -713,6 +713,11 @@ pub enum SolverDeck {
         /// How many times a load step may be halved.
         #[serde(default = "default_qs_splits")]
         max_splits: u32,
+        /// The stage ends after the first load step whose equilibrium stores less than this
+        /// fraction of the work done on the body (it has broken through); absent: it runs
+        /// all its load steps.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        stop_when_stored_below: Option<f64>,
     },
 }
 

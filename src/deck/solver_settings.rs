@@ -92,6 +92,7 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
             max_equilibria,
             max_broken_bonds,
             max_splits,
+            stop_when_stored_below,
         } => SolverSettings {
             steps: Some(*load_steps),
             end_time: Some(*end_time),
@@ -113,6 +114,7 @@ pub fn settings_of(solver: &SolverDeck) -> SolverSettings {
                 max_equilibria: *max_equilibria,
                 max_broken_per_step: *max_broken_bonds,
                 max_splits: *max_splits,
+                stop_when_stored_below: *stop_when_stored_below,
                 ..QuasiStaticSettings::default()
             }),
             adaptive: None,

@@ -1098,6 +1098,7 @@ fn validate_solver(
             mass_factor,
             max_equilibria,
             max_broken_bonds,
+            stop_when_stored_below,
             ..
         } => {
             if *method == QuasiStaticMethod::Ncg && softens {
@@ -1152,6 +1153,12 @@ fn validate_solver(
                 issues.push(DeckIssue::new(
                     &format!("{prefix}solver.mass_factor"),
                     format!("the fictitious mass factor must be at least 1 (the stability bound of dynamic relaxation), found {mass_factor}"),
+                ));
+            }
+            if let Some(f) = stop_when_stored_below.filter(|f| !(*f > 0.0 && *f < 1.0)) {
+                issues.push(DeckIssue::new(
+                    &format!("{prefix}solver.stop_when_stored_below"),
+                    format!("expected a fraction of the work done in (0, 1), e.g. 0.01, found {f}"),
                 ));
             }
             if *max_broken_bonds == Some(0) {

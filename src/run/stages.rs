@@ -130,7 +130,15 @@ impl<const D: usize> Course<D> {
                         Some(name) => format!("stage {name}"),
                         None => "quasi-static".into(),
                     };
-                    self.notes.push(format!("{name}: {}", solver.describe()));
+                    let mut note = format!("{name}: {}", solver.describe());
+                    if solver.broken_through(sim) {
+                        note += &format!(
+                            "; stopped at load time {:e}: the body stores less than {} of the work done on it",
+                            sim.state.time,
+                            solver.settings.stop_when_stored_below.unwrap_or_default()
+                        );
+                    }
+                    self.notes.push(note);
                 }
                 // A continued run's driver state served the stage it was in only.
                 self.current = None;
@@ -372,11 +380,15 @@ impl<const D: usize> Loop<D> {
                 end_time, slack, ..
             } => end_time - sim.state.time <= slack,
             Loop::QuasiStatic {
+                ref solver,
                 start,
                 increment,
                 load_steps,
                 ..
-            } => sim.state.time >= start + load_steps as f64 * increment,
+            } => {
+                sim.state.time >= start + load_steps as f64 * increment
+                    || solver.broken_through(sim)
+            }
         }
     }
 
@@ -443,7 +455,7 @@ impl<const D: usize> Loop<D> {
                 load_steps,
                 k,
             } => loop {
-                if *k > *load_steps {
+                if *k > *load_steps || solver.broken_through(sim) {
                     return Ok(false);
                 }
                 // The target from k, not by summing increments: no drift over many steps.
@@ -460,7 +472,8 @@ impl<const D: usize> Loop<D> {
                     continue;
                 }
                 sim.check_finite()?;
-                let stage_end = *k == *load_steps && sim.state.time >= target;
+                let stage_end =
+                    *k == *load_steps && sim.state.time >= target || solver.broken_through(sim);
                 watch.commit(sim, stage_end, |sim| self.driver(sim))?;
                 break;
             },

@@ -106,6 +106,10 @@ pub struct QuasiStaticSettings {
     /// NCG preconditioned by Jacobi plus a coarse grid's correction (`coarse_space`) instead
     /// of Jacobi alone.
     pub two_level: bool,
+    /// The stage ends after the first load step whose equilibrium stores less than this
+    /// fraction of the external work done so far (`QuasiStatic::broken_through`); never
+    /// when unset.
+    pub stop_when_stored_below: Option<f64>,
 }
 
 /// How ADR bounds its fictitious masses from the stiffness (both keep the central-difference
@@ -157,6 +161,7 @@ impl Default for QuasiStaticSettings {
             damping: AdrDamping::Local,
             exact_line_search: false,
             two_level: false,
+            stop_when_stored_below: None,
         }
     }
 }
@@ -475,6 +480,20 @@ impl<const D: usize> QuasiStatic<D> {
             AdrDamping::Increment => " and the damping of the last increment",
         };
         format!("ADR with {masses}{damping}, {} iterations", self.iterations)
+    }
+
+    /// Whether the committed equilibrium stores less than `stop_when_stored_below` of the
+    /// external work done so far: the body has broken through and carries (nearly) no load.
+    /// Seed 000 §4.2 loads its plate "until full separation of the sample occurs"; after
+    /// that, load steps only break the last bonds of slivers hanging across the crack, an
+    /// equilibrium each. The stored energy, not a fall of the reaction from its peak,
+    /// because it needs nothing remembered across a restart.
+    pub fn broken_through<M: Material<D>>(&self, sim: &Simulation<D, M>) -> bool {
+        let Some(fraction) = self.settings.stop_when_stored_below else {
+            return false;
+        };
+        let work = sim.state.external_work;
+        work > 0.0 && sim.strain_energy() < fraction * work
     }
 
     /// Sets up the masses for `sim`; `increment` is the nominal load step (pseudo-time).

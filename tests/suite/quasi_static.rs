@@ -708,6 +708,77 @@ fn split_load_steps_trace_the_fracture_and_fix_the_peak_load() {
     assert!(change < 0.05);
 }
 
+/// The notched plate of `notched_deck(10)`, pulled twice as far, run whole and with
+/// `stop_when_stored_below`: the
+/// stopped run ends at the first load step whose equilibrium stores less than 1 % of the work
+/// done (the step that cuts the plate: its load falls to nothing), and its history is the
+/// whole run's up to there, bit for bit (the stop changes when the run ends, not its path).
+#[test]
+fn a_run_that_breaks_through_stops_at_the_step_that_cut_it() {
+    let run_into = |name: &str, stop: &str| {
+        let mut ld = notched_deck(10);
+        ld.src = ld
+            .src
+            .replace("max_splits = 6\n", &format!("max_splits = 6\n{stop}\n"))
+            .replace("value = 1e-5", "value = 2e-5");
+        ld.deck = LoadedDeck::from_str(&ld.src, Path::new("notched.toml"))
+            .unwrap()
+            .deck;
+        ld.file = std::path::PathBuf::from("notched.toml");
+        let out = std::env::temp_dir().join(format!("peridyn-{name}-{}", std::process::id()));
+        let options = peridyn::run::RunOptions {
+            out_dir: out.clone(),
+            threads: None,
+            quiet: true,
+        };
+        let summary = peridyn::run::run(&ld, &options).unwrap();
+        let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+        std::fs::remove_dir_all(&out).ok();
+        (summary.notes, history)
+    };
+    let (_, whole) = run_into("whole", "");
+    let (notes, stopped) = run_into("stopped", "stop_when_stored_below = 0.01");
+    let rows = |text: &str| -> Vec<Vec<f64>> {
+        text.lines()
+            .skip(1)
+            .map(|l| {
+                l.split(',')
+                    .map(|c| c.parse().unwrap_or(f64::NAN))
+                    .collect()
+            })
+            .collect()
+    };
+    let header: Vec<&str> = whole.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let (stored, work, load) = (
+        column("strain_energy"),
+        column("external_work"),
+        column("reaction_top_y"),
+    );
+    let (whole_rows, stopped_rows) = (rows(&whole), rows(&stopped));
+    let n = stopped_rows.len();
+    assert!(
+        n < whole_rows.len(),
+        "the stop ended the run early ({n} rows)"
+    );
+    assert!(
+        whole.starts_with(&stopped),
+        "the stopped history is the whole run's beginning"
+    );
+    let kept = |r: &Vec<f64>| r[stored] / r[work];
+    assert!(kept(&stopped_rows[n - 1]) < 0.01);
+    assert!(stopped_rows[1..n - 1].iter().all(|r| kept(r) >= 0.01));
+    // The step that stopped it cut the plate: its load fell from the peak to nothing.
+    let peak = stopped_rows.iter().map(|r| r[load]).fold(0.0, f64::max);
+    let last = stopped_rows[n - 1][load];
+    println!("stopped after {n} rows of {}: load {last:.4e} N of a {peak:.4} N peak, {:.2e} of the work stored", whole_rows.len(), kept(&stopped_rows[n - 1]));
+    assert!(last < 0.02 * peak);
+    assert!(
+        notes.iter().any(|n| n.contains("stopped at load time")),
+        "{notes:?}"
+    );
+}
+
 #[test]
 fn a_run_records_openings_and_draws_its_history() {
     // Probes in one column of the two grip layers: the opening is the pull.

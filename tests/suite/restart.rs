@@ -377,6 +377,28 @@ fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A quasi-static run that stops where the plate breaks through (`stop_when_stored_below`),
+/// stopped before that and continued: the continued run stops at the same step, with the
+/// same files; the stop needs nothing remembered across the restart.
+#[test]
+fn a_run_stopped_when_broken_through_continues_byte_identical() {
+    let dir = scratch("broken-through");
+    let solver = "load_steps = 10\ntolerance = 1e-4\nmax_broken_bonds = 40\nmax_splits = 3\nstop_when_stored_below = 0.01";
+    let text = quasi_static_text(4e-5, solver, "checkpoint_interval = 2");
+    let ld = load(&dir, "qs.toml", &text);
+    assert_restart_matches(&ld, &dir, 5);
+    let summary = std::fs::read_to_string(dir.join("whole/summary.txt")).unwrap();
+    assert!(summary.contains("stopped at load time"), "{summary}");
+    let history = std::fs::read_to_string(dir.join("whole/history.csv")).unwrap();
+    let last = history.lines().last().unwrap().split(',').next().unwrap();
+    let last: f64 = last.parse().unwrap();
+    assert!(
+        last < 0.9,
+        "it broke through before the last load step (t = {last})"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A quasi-static run paused inside its relaxations for checkpoints (as the clock asks in a
 /// study's run; here after every ADR iteration), stopped at one of them inside the load step
 /// in which the crack runs and continued: the same files, byte for byte, as the run that
