@@ -671,6 +671,7 @@ pub fn read_output(table: &Table, o: &OutputSpec) -> Result<Option<f64>, String>
         Some(Reduce::TimeOfMax) => Reduction::TimeOfMax(o.within.unwrap_or(0.0)),
         Some(Reduce::Mean) => Reduction::Mean,
         Some(Reduce::Count) => Reduction::Count,
+        Some(Reduce::Present) => Reduction::Present,
         Some(Reduce::Pearson) => Reduction::Pearson(column(o.against.as_deref())?),
         Some(Reduce::MaxDistance) => Reduction::MaxDistance(column(o.against.as_deref())?),
         Some(Reduce::Slope) => Reduction::Slope {

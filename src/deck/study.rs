@@ -198,6 +198,9 @@ pub enum Reduce {
     Mean,
     /// How many rows have a value (the forks of `branching.csv`).
     Count,
+    /// 1 when the last row has a value, else 0 (a crack tip found in its box when the run
+    /// ended, however early it ended).
+    Present,
     /// The Pearson correlation with the column `against` (a crack path against its
     /// reference in `crack_path_comparison.csv`; seed 003 Eq. 17).
     Pearson,

@@ -35,6 +35,8 @@ pub enum Reduction {
     Mean,
     /// How many rows have a value (forks in `branching.csv`, samples of a tip).
     Count,
+    /// 1 when the window's last row has a value, else 0 (a tip in its box at the run's end).
+    Present,
     /// The Pearson correlation of the column with a second one, over the rows where both have
     /// values (seed 003 Eq. 17: a crack path against its reference).
     Pearson(usize),
@@ -131,10 +133,15 @@ impl Table {
             }
             _ => None,
         };
-        let rows: Vec<&Vec<f64>> = self
+        let mut windowed = self
             .rows
             .iter()
-            .filter(|r| time.is_none_or(|t| r.get(t).is_some_and(|&v| window.holds(v))))
+            .filter(|r| time.is_none_or(|t| r.get(t).is_some_and(|&v| window.holds(v))));
+        if how == Reduction::Present {
+            let last = windowed.next_back();
+            return Ok(last.map(|r| r.get(c).is_some_and(|v| !v.is_nan()) as u8 as f64));
+        }
+        let rows: Vec<&Vec<f64>> = windowed
             .filter(|r| r.get(c).is_some_and(|v| !v.is_nan()))
             .collect();
         let values = || rows.iter().map(|r| r[c]);
@@ -175,6 +182,7 @@ impl Table {
                 (!rows.is_empty()).then(|| values().sum::<f64>() / rows.len() as f64)
             }
             Reduction::Count => Some(rows.len() as f64),
+            Reduction::Present => unreachable!("answered above"),
             Reduction::Pearson(other) => {
                 let (y, x): (Vec<f64>, Vec<f64>) = paired(other).unzip();
                 pearson(&x, &y)
@@ -385,6 +393,13 @@ mod tests {
             Some(1.0)
         );
         assert_eq!(r("speed", Reduction::Final, w(None, Some(0.5))), None);
+        // A tip in the last row (of the table, of a window), none in the first.
+        assert_eq!(r("speed", Reduction::Present, w(None, None)), Some(1.0));
+        assert_eq!(
+            r("speed", Reduction::Present, w(None, Some(0.5))),
+            Some(0.0)
+        );
+        assert_eq!(r("speed", Reduction::Present, w(Some(9.0), None)), None);
         // Perfectly linear over the first three rows, r = 1; the last row bends it.
         let reference = t.column("reference").unwrap();
         let first_three = r("path", Reduction::Pearson(reference), w(None, Some(2.0)));
