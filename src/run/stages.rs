@@ -473,7 +473,7 @@ impl<const D: usize> Loop<D> {
                 }
                 sim.check_finite()?;
                 let stage_end =
-                    *k == *load_steps && sim.state.time >= target || solver.broken_through(sim);
+                    (*k == *load_steps && sim.state.time >= target) || solver.broken_through(sim);
                 watch.commit(sim, stage_end, |sim| self.driver(sim))?;
                 break;
             },

@@ -133,17 +133,13 @@ impl Table {
             }
             _ => None,
         };
-        let mut windowed = self
+        let windowed: Vec<&Vec<f64>> = self
             .rows
             .iter()
-            .filter(|r| time.is_none_or(|t| r.get(t).is_some_and(|&v| window.holds(v))));
-        if how == Reduction::Present {
-            let last = windowed.next_back();
-            return Ok(last.map(|r| r.get(c).is_some_and(|v| !v.is_nan()) as u8 as f64));
-        }
-        let rows: Vec<&Vec<f64>> = windowed
-            .filter(|r| r.get(c).is_some_and(|v| !v.is_nan()))
+            .filter(|r| time.is_none_or(|t| r.get(t).is_some_and(|&v| window.holds(v))))
             .collect();
+        let has_value = |r: &&Vec<f64>| r.get(c).is_some_and(|v| !v.is_nan());
+        let rows: Vec<&Vec<f64>> = windowed.iter().copied().filter(has_value).collect();
         let values = || rows.iter().map(|r| r[c]);
         // (the other column's value, this column's) in the rows where the other has one.
         let paired = |other: usize| {
@@ -182,7 +178,7 @@ impl Table {
                 (!rows.is_empty()).then(|| values().sum::<f64>() / rows.len() as f64)
             }
             Reduction::Count => Some(rows.len() as f64),
-            Reduction::Present => unreachable!("answered above"),
+            Reduction::Present => windowed.last().map(|r| has_value(r) as u8 as f64),
             Reduction::Pearson(other) => {
                 let (y, x): (Vec<f64>, Vec<f64>) = paired(other).unzip();
                 pearson(&x, &y)
