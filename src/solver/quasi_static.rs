@@ -489,7 +489,12 @@ impl<const D: usize> QuasiStatic<D> {
     /// equilibrium each. The stored energy, not a fall of the reaction from its peak,
     /// because it needs nothing remembered across a restart.
     pub fn broken_through<M: Material<D>>(&self, sim: &Simulation<D, M>) -> bool {
-        let Some(fraction) = self.settings.stop_when_stored_below else {
+        // A step paused for a checkpoint is no equilibrium: its work is not yet booked.
+        let Some(fraction) = self
+            .settings
+            .stop_when_stored_below
+            .filter(|_| self.paused.is_none())
+        else {
             return false;
         };
         let work = sim.state.external_work;
