@@ -318,12 +318,17 @@ impl<const D: usize> Loop<D> {
         if let Some(memory) = watch.at.resume.as_mut().and_then(|d| d.quasi_static.take()) {
             solver.resume(memory);
         }
+        // A run continued from the step that broke the body through has no step left.
+        let k = match solver.broken_through(sim) {
+            true => load_steps + 1,
+            false => 1,
+        };
         let l = Loop::QuasiStatic {
             solver: Box::new(solver),
             start,
             increment,
             load_steps,
-            k: 1,
+            k,
         };
         l.started(sim, load_steps == 0, watch)
     }
@@ -380,15 +385,12 @@ impl<const D: usize> Loop<D> {
                 end_time, slack, ..
             } => end_time - sim.state.time <= slack,
             Loop::QuasiStatic {
-                ref solver,
                 start,
                 increment,
                 load_steps,
+                k,
                 ..
-            } => {
-                sim.state.time >= start + load_steps as f64 * increment
-                    || solver.broken_through(sim)
-            }
+            } => k > load_steps || sim.state.time >= start + load_steps as f64 * increment,
         }
     }
 
@@ -455,7 +457,7 @@ impl<const D: usize> Loop<D> {
                 load_steps,
                 k,
             } => loop {
-                if *k > *load_steps || solver.broken_through(sim) {
+                if *k > *load_steps {
                     return Ok(false);
                 }
                 // The target from k, not by summing increments: no drift over many steps.
@@ -472,8 +474,12 @@ impl<const D: usize> Loop<D> {
                     continue;
                 }
                 sim.check_finite()?;
-                let stage_end =
-                    (*k == *load_steps && sim.state.time >= target) || solver.broken_through(sim);
+                // Once broken through (`stop_when_stored_below`), no load step is left.
+                let broken = solver.broken_through(sim);
+                let stage_end = broken || (*k == *load_steps && sim.state.time >= target);
+                if broken {
+                    *k = *load_steps + 1;
+                }
                 watch.commit(sim, stage_end, |sim| self.driver(sim))?;
                 break;
             },

@@ -16,6 +16,7 @@ use peridyn::math::Vector;
 use peridyn::run::{drive, drive_quasi_static, RunError};
 use peridyn::solver::coarse_space::CoarseSpace;
 use peridyn::solver::{AdrMass, EquilibriumMethod, QuasiStatic, QuasiStaticSettings, Simulation};
+use peridyn::study::table::Table;
 use std::path::Path;
 
 /// A 2D plane-stress PMB plate 20 mm × 40 mm (Δx = 0.5 mm, δ = 3Δx) between two grip layers
@@ -709,8 +710,7 @@ fn split_load_steps_trace_the_fracture_and_fix_the_peak_load() {
 }
 
 /// The notched plate of `notched_deck(10)`, pulled twice as far, run whole and with
-/// `stop_when_stored_below`: the
-/// stopped run ends at the first load step whose equilibrium stores less than 1 % of the work
+/// `stop_when_stored_below`: the stopped run ends at the first load step whose equilibrium stores less than 1 % of the work
 /// done (the step that cuts the plate: its load falls to nothing), and its history is the
 /// whole run's up to there, bit for bit (the stop changes when the run ends, not its path).
 #[test]
@@ -738,24 +738,14 @@ fn a_run_that_breaks_through_stops_at_the_step_that_cut_it() {
     };
     let (_, whole) = run_into("whole", "");
     let (notes, stopped) = run_into("stopped", "stop_when_stored_below = 0.01");
-    let rows = |text: &str| -> Vec<Vec<f64>> {
-        text.lines()
-            .skip(1)
-            .map(|l| {
-                l.split(',')
-                    .map(|c| c.parse().unwrap_or(f64::NAN))
-                    .collect()
-            })
-            .collect()
-    };
-    let header: Vec<&str> = whole.lines().next().unwrap().split(',').collect();
-    let column = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let table = |text: &str| Table::parse(text).unwrap();
+    let (whole_rows, stopped_rows) = (table(&whole).rows, table(&stopped).rows);
+    let column = |name: &str| table(&whole).column(name).unwrap();
     let (stored, work, load) = (
         column("strain_energy"),
         column("external_work"),
         column("reaction_top_y"),
     );
-    let (whole_rows, stopped_rows) = (rows(&whole), rows(&stopped));
     let n = stopped_rows.len();
     assert!(
         n < whole_rows.len(),

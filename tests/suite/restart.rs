@@ -355,14 +355,18 @@ fn quasi_static_text(pull: f64, solver: &str, output: &str) -> String {
         )
 }
 
+/// Quasi-static solver keys of the restarts through a crack's growth: load steps halved where
+/// more than 40 bonds break.
+const SPLIT_STEPS: &str =
+    "load_steps = 10\ntolerance = 1e-4\nmax_broken_bonds = 40\nmax_splits = 3";
+
 /// A quasi-static run through the crack's growth, its load steps halved where too many bonds
 /// break, stopped after a halved step and continued: the solver's memory (the increment in
 /// use, the predictor's last displacements, the largest load) crosses the restart.
 #[test]
 fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
     let dir = scratch("quasi-static");
-    let solver = "load_steps = 10\ntolerance = 1e-4\nmax_broken_bonds = 40\nmax_splits = 3";
-    let text = quasi_static_text(2e-5, solver, "checkpoint_interval = 2");
+    let text = quasi_static_text(2e-5, SPLIT_STEPS, "checkpoint_interval = 2");
     let ld = load(&dir, "qs.toml", &text);
     assert_restart_matches(&ld, &dir, 9);
     // Steps were halved before the stop (the increment in use crossed the restart).
@@ -383,8 +387,8 @@ fn quasi_static_run_continued_after_a_stop_is_byte_identical() {
 #[test]
 fn a_run_stopped_when_broken_through_continues_byte_identical() {
     let dir = scratch("broken-through");
-    let solver = "load_steps = 10\ntolerance = 1e-4\nmax_broken_bonds = 40\nmax_splits = 3\nstop_when_stored_below = 0.01";
-    let text = quasi_static_text(4e-5, solver, "checkpoint_interval = 2");
+    let solver = format!("{SPLIT_STEPS}\nstop_when_stored_below = 0.01");
+    let text = quasi_static_text(4e-5, &solver, "checkpoint_interval = 2");
     let ld = load(&dir, "qs.toml", &text);
     assert_restart_matches(&ld, &dir, 5);
     let summary = std::fs::read_to_string(dir.join("whole/summary.txt")).unwrap();
