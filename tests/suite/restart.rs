@@ -410,7 +410,7 @@ fn a_run_stopped_when_broken_through_continues_byte_identical() {
 /// count), and so does the step (its decisions so far, its work record, its start).
 #[test]
 fn a_run_stopped_inside_a_load_step_continues_byte_identical() {
-    assert_stopped_inside_the_crack_step_continues("inside-step-adr", "", 1);
+    assert_stopped_inside_the_crack_step_continues("inside-step-adr", 2e-5, "", 1, (1, 3));
 }
 
 /// As `a_run_stopped_inside_a_load_step_continues_byte_identical`, with conjugate gradients:
@@ -419,7 +419,13 @@ fn a_run_stopped_inside_a_load_step_continues_byte_identical() {
 /// more).
 #[test]
 fn a_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_identical() {
-    assert_stopped_inside_the_crack_step_continues("inside-step-ncg", "method = \"ncg\"", 2);
+    assert_stopped_inside_the_crack_step_continues(
+        "inside-step-ncg",
+        2e-5,
+        "method = \"ncg\"",
+        2,
+        (1, 3),
+    );
 }
 
 /// The same with the two-level preconditioner: the continued run assembles the coarse
@@ -428,23 +434,27 @@ fn a_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_identical(
 fn a_two_level_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_identical() {
     assert_stopped_inside_the_crack_step_continues(
         "inside-step-ncg-two-level",
+        2e-5,
         "method = \"ncg\"\npreconditioner = \"two_level\"",
         2,
+        (1, 3),
     );
 }
 
-/// Runs the fracturing quasi-static plate with `method` whole, then pausing after every
+/// Runs the fracturing quasi-static plate pulled to `pull` with `method` whole, then pausing after every
 /// iteration (`evaluations_per_pause` force evaluations, or more, apart) and stopped about a
 /// third of the way into the load step in which the crack runs; continued, it must leave the
 /// same files.
 fn assert_stopped_inside_the_crack_step_continues(
     name: &str,
+    pull: f64,
     method: &str,
     evaluations_per_pause: u64,
-) {
+    part_of_step: (u64, u64),
+) -> Vec<String> {
     let dir = scratch(name);
     let solver = format!("load_steps = 10\ntolerance = 1e-4\n{method}");
-    let text = quasi_static_text(2e-5, &solver, "")
+    let text = quasi_static_text(pull, &solver, "")
         .replace("history_interval = 7", "history_interval = 1");
     let ld = load(&dir, "qs.toml", &text);
     let (whole, parts) = (dir.join("whole"), dir.join("parts"));
@@ -474,7 +484,9 @@ fn assert_stopped_inside_the_crack_step_continues(
     let before: u64 = iterations[..crack].iter().sum();
     let control = RunControl {
         checkpoint_every: Some(std::time::Duration::ZERO),
-        stop_at_pause: Some((before + most / 3) / evaluations_per_pause),
+        stop_at_pause: Some(
+            (before + most * part_of_step.0 / part_of_step.1) / evaluations_per_pause,
+        ),
         ..RunControl::default()
     };
     let stopped = run_with(&ld, &options(&parts, Some(1)), &control);
@@ -489,8 +501,30 @@ fn assert_stopped_inside_the_crack_step_continues(
     };
     let continued = run_with(&ld, &options(&parts, Some(2)), &restart).unwrap();
     assert_eq!(continued.broken_bonds, summary.broken_bonds);
+    assert_eq!(continued.notes, summary.notes);
     assert_same_files(&whole, &parts);
     let _ = std::fs::remove_dir_all(&dir);
+    summary.notes
+}
+
+/// As `a_run_stopped_inside_a_load_step_continues_byte_identical`, with the stop where the
+/// plate breaks through (`stop_when_stored_below`), paused near the end of the step that cuts
+/// it: the paused state stores little, but its step's work is not booked yet, so neither the
+/// pause nor the continued run's start may end the stage there.
+#[test]
+fn a_run_paused_inside_the_step_that_breaks_it_through_continues_byte_identical() {
+    let notes = assert_stopped_inside_the_crack_step_continues(
+        "inside-step-broken-through",
+        4e-5,
+        "stop_when_stored_below = 0.05",
+        1,
+        (19, 20),
+    );
+    // It stopped at the end of the crack's step, the one paused in (step 5 of 10).
+    assert!(
+        notes.iter().any(|n| n.contains("stopped at load time 5e-1")),
+        "{notes:?}"
+    );
 }
 
 /// A relaxation that does not converge stops the run with its load step named, and the last
