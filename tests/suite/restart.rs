@@ -441,10 +441,10 @@ fn a_two_level_conjugate_gradient_run_stopped_inside_a_load_step_continues_byte_
     );
 }
 
-/// Runs the fracturing quasi-static plate pulled to `pull` with `method` whole, then pausing after every
-/// iteration (`evaluations_per_pause` force evaluations, or more, apart) and stopped about a
-/// third of the way into the load step in which the crack runs; continued, it must leave the
-/// same files.
+/// Runs the fracturing quasi-static plate pulled to `pull` with `method` whole, then pausing
+/// after every iteration (`evaluations_per_pause` force evaluations, or more, apart) and
+/// stopped `part_of_step` (a fraction) of the way into the load step in which the crack runs;
+/// continued, it must leave the same files and notes, which it returns.
 fn assert_stopped_inside_the_crack_step_continues(
     name: &str,
     pull: f64,
@@ -522,7 +522,9 @@ fn a_run_paused_inside_the_step_that_breaks_it_through_continues_byte_identical(
     );
     // It stopped at the end of the crack's step, the one paused in (step 5 of 10).
     assert!(
-        notes.iter().any(|n| n.contains("stopped at load time 5e-1")),
+        notes
+            .iter()
+            .any(|n| n.contains("stopped at load time 5e-1")),
         "{notes:?}"
     );
 }
